@@ -1,0 +1,14 @@
+// One translation unit per factor: autodiff instantiation is slow to compile.
+#include <ceres/autodiff_cost_function.h>
+
+#include "factors/se2_factors.h"
+
+namespace cairn::factors {
+
+ceres::CostFunction* SE2BetweenFactor::Create(const Eigen::Vector3d& z,
+                                              const Eigen::Matrix3d& info) {
+  return new ceres::AutoDiffCostFunction<SE2BetweenFactor, 3, 3, 3>(
+      new SE2BetweenFactor(z, SqrtInformation<3>(info)));
+}
+
+}  // namespace cairn::factors

@@ -1,0 +1,13 @@
+#include <ceres/autodiff_cost_function.h>
+
+#include "factors/se2_factors.h"
+
+namespace cairn::factors {
+
+ceres::CostFunction* SE2PriorFactor::Create(const Eigen::Vector3d& z,
+                                            const Eigen::Matrix3d& info) {
+  return new ceres::AutoDiffCostFunction<SE2PriorFactor, 3, 3>(
+      new SE2PriorFactor(z, SqrtInformation<3>(info)));
+}
+
+}  // namespace cairn::factors

@@ -1,0 +1,14 @@
+// One translation unit per factor: autodiff instantiation is slow to compile.
+#include <ceres/autodiff_cost_function.h>
+
+#include "factors/se3_factors.h"
+
+namespace cairn::factors {
+
+ceres::CostFunction* SE3BetweenFactor::Create(const Eigen::Quaterniond& qz,
+                                              const Eigen::Vector3d& tz, const Matrix6d& info) {
+  return new ceres::AutoDiffCostFunction<SE3BetweenFactor, 6, 7, 7>(
+      new SE3BetweenFactor(qz.normalized(), tz, SqrtInformation<6>(info)));
+}
+
+}  // namespace cairn::factors

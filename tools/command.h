@@ -1,0 +1,30 @@
+// The `cairn` sub-command table. Each sub-command lives in its own
+// cmd_<name>.cpp and registers itself with CAIRN_COMMAND, so the tool's
+// main() never needs editing to add one.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace cairn::tools {
+
+using CommandFn = int (*)(int argc, char** argv);
+
+struct Command {
+  std::string name;
+  std::string summary;
+  CommandFn run;
+};
+
+std::vector<Command>& Commands();
+
+struct CommandRegistrar {
+  CommandRegistrar(const char* name, const char* summary, CommandFn run) {
+    Commands().push_back({name, summary, run});
+  }
+};
+
+}  // namespace cairn::tools
+
+#define CAIRN_COMMAND(name, summary, fn) \
+  static ::cairn::tools::CommandRegistrar cairn_command_registrar_##fn(name, summary, fn)

@@ -51,8 +51,10 @@ bool VerifyLoopClosure(const PointCloud& submap, const PointCloud& query, const 
   CorrelativeOptions co;
   co.linear_window = linear_window;
   co.angular_window = o.loop_angular_window;
-  co.angular_step = 0.0087;
-  co.distance_penalty = 0.0;  // the candidate guess is not to be trusted
+  co.angular_step = 0.0175;
+  // A faint pull to the guess: where the walls leave a direction free (a
+  // corridor), the current estimate beats an arbitrary point on a flat score.
+  co.distance_penalty = 0.05;
   const CorrelativeResult cr = CorrelativeMatch(*maps.coarse, *maps.fine, SearchPoints(query), guess, co);
   IcpOptions io;
   const IcpResult icp = IcpMatch(*maps.fine, Downsample(query, 0.05), cr.pose, io);
@@ -86,12 +88,15 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
     const size_t K = res.keyframes.size();
     const size_t first = K > static_cast<size_t>(o.local_map_keyframes) ? K - o.local_map_keyframes : 0;
     for (size_t k = first; k < K; ++k) world.Append(res.keyframes[k].cloud, kf_pose(k));
+    const auto t0 = Clock::now();
     local = std::make_unique<MapPair>(world);
+    res.stats.seconds_local_map += Since(t0);
   };
 
   SE2 current, dr;
   double path = 0;
   bool loop_pending = false;
+  double path_at_last_loop = -1e9;
   size_t last_opt_kf = 0;
   auto optimize = [&](int iterations) {
     const auto t0 = Clock::now();
@@ -159,7 +164,9 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
     e.from = static_cast<int64_t>(last);
     e.to = static_cast<int64_t>(K);
     e.z = ToParams(since);
-    if (!tracked) info = OdometryInformation(since);
+    // The tracked pose fuses odometry and the scan match: the match pins
+    // what the walls constrain, the odometry the rest (along a corridor).
+    info = tracked ? Eigen::Matrix3d(info + OdometryInformation(since)) : OdometryInformation(since);
     e.information.topLeftCorner<3, 3>() = info;
     graph.AddEdge(e);
     res.keyframes.push_back({i, path, std::move(cloud)});
@@ -171,8 +178,8 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
     std::vector<std::pair<double, size_t>> near;
     const SE2 xk = kf_pose(K);
     for (size_t j = 0; j + 1 < K; ++j) {
-      const double travel = path - res.keyframes[j].path;
-      if (travel < o.loop_min_travel) continue;
+      if (path - res.keyframes[j].path < o.loop_min_travel) continue;
+      const double travel = std::min(path - res.keyframes[j].path, path - path_at_last_loop);
       const double radius = std::min(o.loop_max_radius, o.loop_radius + o.loop_radius_growth * travel);
       const double d = (kf_pose(j).translation() - xk.translation()).norm();
       if (d <= radius) near.emplace_back(d, j);
@@ -196,7 +203,7 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
       PointCloud query;
       const size_t qlo = K + 1 > static_cast<size_t>(o.loop_query_keyframes) ? K + 1 - o.loop_query_keyframes : 0;
       for (size_t m = qlo; m <= K; ++m) query.Append(res.keyframes[m].cloud, xk.Between(kf_pose(m)));
-      const double travel = path - res.keyframes[j].path;
+      const double travel = std::min(path - res.keyframes[j].path, path - path_at_last_loop);
       const double window = std::min(o.loop_max_radius, o.loop_radius + o.loop_radius_growth * travel);
       SE2 matched;
       Eigen::Matrix3d linfo;
@@ -209,6 +216,7 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
       lc.information.topLeftCorner<3, 3>() = linfo;
       graph.AddEdge(lc);
       ++res.stats.loop_accepted;
+      path_at_last_loop = path;
       loop_pending = true;
       if (progress)
         *progress << "loop closure " << j << " -> " << K << " (scan " << i << "), correction "

@@ -21,7 +21,7 @@ struct MapperOptions {
   double keyframe_distance = 0.5;   // metres travelled
   double keyframe_angle = 0.436;    // radians turned (25 degrees)
   double min_range = 0.05;
-  double max_match_range = 30.0;    // longer beams are too sparse to match well
+  double max_match_range = 60.0;    // longer beams are too sparse to match well
   // Readings at or above this are "no return"; 0 takes the log's largest.
   double max_range = 0;
   int local_map_keyframes = 10;
@@ -53,7 +53,7 @@ struct KeyFrame {
 
 struct MapperStats {
   size_t loop_candidates = 0, loop_accepted = 0, optimizations = 0, tracking_failures = 0;
-  double seconds_matching = 0, seconds_loops = 0, seconds_optimizing = 0;
+  double seconds_matching = 0, seconds_local_map = 0, seconds_loops = 0, seconds_optimizing = 0;
 };
 
 struct MapResult {

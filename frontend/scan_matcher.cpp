@@ -227,8 +227,16 @@ IcpResult IcpMatch(const MatchMap& map, const PointCloud& scan, const SE2& guess
       ++used;
     }
     if (used < 10) break;
-    H.diagonal() += Eigen::Vector3d::Constant(1e-6);
-    const Eigen::Vector3d delta = -H.ldlt().solve(g);
+    // Solve in H's eigenbasis and leave unobservable directions (a
+    // corridor's axis) where the guess put them, rather than let noise
+    // slide the pose along them.
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(H);
+    const Eigen::Vector3d lam = es.eigenvalues();
+    const Eigen::Vector3d proj = es.eigenvectors().transpose() * g;
+    Eigen::Vector3d step = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k)
+      if (lam[k] > 1e-3 * lam[2] && lam[k] > 1e-9) step[k] = -proj[k] / lam[k];
+    const Eigen::Vector3d delta = es.eigenvectors() * step;
     x += delta[0];
     y += delta[1];
     th = NormalizeAngle(th + delta[2]);

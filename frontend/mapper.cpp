@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <cstdio>
+#include <cstdlib>
 #include <ostream>
 
 namespace cairn::frontend {
@@ -135,7 +137,25 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
       co.angular_window = o.track_angular_window;
       const CorrelativeResult cr =
           CorrelativeMatch(*local->coarse, *local->fine, SearchPoints(cloud), predicted, co);
-      const IcpResult icp = IcpMatch(*local->fine, Downsample(cloud, 0.05), cr.pose, IcpOptions{});
+      const PointCloud icp_cloud = Downsample(cloud, 0.05);
+      IcpResult icp = IcpMatch(*local->fine, icp_cloud, cr.pose, IcpOptions{});
+      // ICP only polishes the search's answer. A long slide is a corridor
+      // pulling the pose along its free axis on a few stray pairs: keep the
+      // search's pose (which leans on the odometry there) and measure its
+      // fit without iterating.
+      const SE2 slide = cr.pose.Between(icp.pose);
+      if (slide.translation().norm() > o.track_max_slide || std::abs(slide.theta()) > 0.05) {
+        IcpOptions still;
+        still.max_iterations = 0;
+        icp = IcpMatch(*local->fine, icp_cloud, cr.pose, still);
+        icp.converged = icp.inliers >= 10;
+      }
+      if (getenv("CAIRN_DEBUG_TRACK")) {
+        const SE2 a = predicted.Between(cr.pose), b = predicted.Between(icp.pose);
+        const SE2 odo = scan.odometry_increment, refd = log.scans[i - 1].reference.Between(scan.reference);
+        fprintf(stderr, "scan %zu odo %.3f %.3f %.2f ref %.3f %.3f %.2f corr %.3f %.3f %.2f (%.3f) icp %.3f %.3f %.2f in %.2f\n", i,
+                odo.x(), odo.y(), odo.theta() * 57.3, refd.x(), refd.y(), refd.theta() * 57.3, a.x(), a.y(), a.theta() * 57.3, cr.score, b.x(), b.y(), b.theta() * 57.3, icp.inlier_fraction);
+      }
       if (icp.converged && icp.inlier_fraction >= o.track_min_inliers) {
         current = icp.pose;
         info = ToBodyFrame(icp.information, icp.pose);

@@ -25,9 +25,10 @@ struct MapperOptions {
   // Readings at or above this are "no return"; 0 takes the log's largest.
   double max_range = 0;
   int local_map_keyframes = 10;
-  double track_linear_window = 0.3;
-  double track_angular_window = 0.175;  // 10 degrees
+  double track_linear_window = 0.5;
+  double track_angular_window = 0.35;   // 20 degrees
   double track_min_inliers = 0.4;       // below: trust the odometry instead
+  double track_max_slide = 0.15;        // metres ICP may move the search's pose
 
   double loop_min_travel = 8.0;         // metres of path between the two ends
   double loop_radius = 1.0;             // candidate radius at zero path...

@@ -99,7 +99,8 @@ int RunMap(int argc, char** argv) {
   for (size_t k = 0; k < res.keyframes.size(); ++k) {
     const size_t s = res.keyframes[k].scan;
     kf_poses.push_back(ToSE2(res.graph.vertex(static_cast<int64_t>(k)).x));
-    traj.Add(log.scans[s].timestamp, kf_poses.back(), static_cast<long>(s), log.scans[s].timestamp_text);
+    traj.Add(log.scans[s].timestamp, kf_poses.back(), static_cast<long>(s),
+             getenv("CAIRN_DEBUG_TUM_INDEX") ? std::to_string(s) : log.scans[s].timestamp_text);
   }
   frontend::WriteTum(traj, prefix + "_trajectory.tum");
   WriteFileAtomically(prefix + "_trajectory.svg", [&](std::ostream& o) {

@@ -57,11 +57,12 @@ bool VerifyLoopClosure(const PointCloud& submap, const PointCloud& query, const 
   // A faint pull to the guess: where the walls leave a direction free (a
   // corridor), the current estimate beats an arbitrary point on a flat score.
   co.distance_penalty = 0.05;
+  co.runner_up_distance = o.loop_runner_up_distance;
   const CorrelativeResult cr = CorrelativeMatch(*maps.coarse, *maps.fine, SearchPoints(query), guess, co);
   IcpOptions io;
   const IcpResult icp = IcpMatch(*maps.fine, Downsample(query, 0.05), cr.pose, io);
   if (icp_out) *icp_out = icp;
-  if (!icp.converged || cr.score < o.loop_min_score || icp.inlier_fraction < o.loop_min_inliers ||
+  if (!icp.converged || cr.score < o.loop_min_score || cr.runner_up_ratio > o.loop_max_runner_up || icp.inlier_fraction < o.loop_min_inliers ||
       icp.mean_residual > o.loop_max_residual)
     return false;
   // ICP should only polish the correlative answer; a long slide means the
@@ -96,6 +97,7 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
   };
 
   SE2 current, dr;
+  double odo_num = 0, odo_den = 0;  // least-squares odometry scale
   double path = 0;
   bool loop_pending = false;
   double path_at_last_loop = -1e9;
@@ -128,7 +130,11 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
     }
     const auto t0 = Clock::now();
     const SE2 prev = current;
-    const SE2 predicted = current * scan.odometry_increment;
+    // Wheel odometry often has a scale error of a percent or two, which a
+    // corridor cannot reveal; learn it where the walls do constrain travel.
+    const double scale = odo_den > 1.0 ? std::clamp(odo_num / odo_den, 0.9, 1.1) : 1.0;
+    const SE2& inc = scan.odometry_increment;
+    const SE2 predicted = current * SE2(scale * inc.x(), scale * inc.y(), inc.theta());
     Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
     bool tracked = false;
     if (cloud.size() >= 20) {
@@ -160,6 +166,11 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
         current = icp.pose;
         info = ToBodyFrame(icp.information, icp.pose);
         tracked = true;
+        const double var_forward = info.inverse()(0, 0);
+        if (std::abs(inc.x()) > 0.1 && var_forward < 0.03 * 0.03) {
+          odo_num += inc.x() * prev.Between(current).x();
+          odo_den += inc.x() * inc.x();
+        }
       }
     }
     if (!tracked) {

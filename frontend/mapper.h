@@ -41,6 +41,10 @@ struct MapperOptions {
   double loop_min_inliers = 0.6;
   double loop_max_residual = 0.04;
   double loop_min_score = 0.4;
+  // Ambiguity test: the best pose at least loop_runner_up_distance from the
+  // winner must score below loop_max_runner_up times the winner's score.
+  double loop_runner_up_distance = 0.5;
+  double loop_max_runner_up = 0.9;
 
   int optimize_every = 5;  // keyframes between solves triggered by loop closures
   OptimizeOptions optimize;

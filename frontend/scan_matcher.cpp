@@ -144,7 +144,8 @@ struct Candidate {
 // the map's grid within +-n cells of `center`.
 void Search(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
             const std::vector<double>& angles, const Eigen::Vector2d& center, int n,
-            const SE2& guess, const CorrelativeOptions& o, Candidate* best) {
+            const SE2& guess, const CorrelativeOptions& o, Candidate* best,
+            std::vector<Candidate>* all = nullptr) {
   const double res = map.resolution();
   std::vector<int> cx(scan.size()), cy(scan.size());
   const double inv_n = 1.0 / std::max<size_t>(1, scan.size());
@@ -173,6 +174,7 @@ void Search(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
                              (1 - o.distance_penalty * std::min(1.0, dl * dl)) *
                              (1 - o.distance_penalty * std::min(1.0, da * da));
         if (score > best->score) *best = {score, theta, t};
+        if (all) all->push_back({score, theta, t});
       }
   }
 }
@@ -188,13 +190,19 @@ CorrelativeResult CorrelativeMatch(const MatchMap& coarse, const MatchMap& fine,
   const int na = static_cast<int>(std::ceil(o.angular_window / coarse_step));
   for (int k = -na; k <= na; ++k) angles.push_back(guess.theta() + k * coarse_step);
   const int n = static_cast<int>(std::ceil(o.linear_window / coarse.resolution()));
-  Search(coarse, scan, angles, guess.translation(), n, guess, o, &best);
+  std::vector<Candidate> all;
+  Search(coarse, scan, angles, guess.translation(), n, guess, o, &best,
+         o.runner_up_distance > 0 ? &all : nullptr);
+  double runner_up = 0;
+  for (const Candidate& c : all)
+    if ((c.t - best.t).norm() > o.runner_up_distance) runner_up = std::max(runner_up, c.score);
   angles.clear();
   for (int k = -2; k <= 2; ++k) angles.push_back(best.theta + k * 0.5 * o.angular_step);
   const int nf = static_cast<int>(std::ceil(coarse.resolution() / fine.resolution()));
   Candidate fine_best;
   Search(fine, scan, angles, best.t, nf, guess, o, &fine_best);
-  return {SE2(fine_best.t.x(), fine_best.t.y(), fine_best.theta), fine_best.score};
+  return {SE2(fine_best.t.x(), fine_best.t.y(), fine_best.theta), fine_best.score,
+          best.score > 0 ? runner_up / best.score : 1.0};
 }
 
 IcpResult IcpMatch(const MatchMap& map, const PointCloud& scan, const SE2& guess,

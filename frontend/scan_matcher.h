@@ -63,11 +63,17 @@ struct CorrelativeOptions {
   // Gentle preference for the guess, so that a corridor's flat score does
   // not let the estimate slide along it.
   double distance_penalty = 0.1;
+  // When positive, also find the best coarse score at least this far (metres)
+  // from the winner: a close second means repeated structure.
+  double runner_up_distance = 0;
 };
 
 struct CorrelativeResult {
   SE2 pose;
   double score = 0;  // mean likelihood of the scan's points, in [0, 1]
+  // Coarse score of the best pose runner_up_distance away, over the best's
+  // (1 when not computed).
+  double runner_up_ratio = 1;
 };
 
 // Exhaustive search on `coarse` (step = its resolution, angular step x2),

@@ -4,8 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
-#include <cstdio>
-#include <cstdlib>
 #include <ostream>
 
 namespace cairn::frontend {
@@ -155,12 +153,6 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
         still.max_iterations = 0;
         icp = IcpMatch(*local->fine, icp_cloud, cr.pose, still);
         icp.converged = icp.inliers >= 10;
-      }
-      if (getenv("CAIRN_DEBUG_TRACK")) {
-        const SE2 a = predicted.Between(cr.pose), b = predicted.Between(icp.pose);
-        const SE2 odo = scan.odometry_increment, refd = log.scans[i - 1].reference.Between(scan.reference);
-        fprintf(stderr, "scan %zu odo %.3f %.3f %.2f ref %.3f %.3f %.2f corr %.3f %.3f %.2f (%.3f) icp %.3f %.3f %.2f in %.2f\n", i,
-                odo.x(), odo.y(), odo.theta() * 57.3, refd.x(), refd.y(), refd.theta() * 57.3, a.x(), a.y(), a.theta() * 57.3, cr.score, b.x(), b.y(), b.theta() * 57.3, icp.inlier_fraction);
       }
       if (icp.converged && icp.inlier_fraction >= o.track_min_inliers) {
         current = icp.pose;

@@ -99,8 +99,7 @@ int RunMap(int argc, char** argv) {
   for (size_t k = 0; k < res.keyframes.size(); ++k) {
     const size_t s = res.keyframes[k].scan;
     kf_poses.push_back(ToSE2(res.graph.vertex(static_cast<int64_t>(k)).x));
-    traj.Add(log.scans[s].timestamp, kf_poses.back(), static_cast<long>(s),
-             getenv("CAIRN_DEBUG_TUM_INDEX") ? std::to_string(s) : log.scans[s].timestamp_text);
+    traj.Add(log.scans[s].timestamp, kf_poses.back(), static_cast<long>(s), log.scans[s].timestamp_text);
   }
   frontend::WriteTum(traj, prefix + "_trajectory.tum");
   WriteFileAtomically(prefix + "_trajectory.svg", [&](std::ostream& o) {
@@ -117,7 +116,7 @@ int RunMap(int argc, char** argv) {
             << st.optimizations << " optimisations (" << solver << "), " << st.tracking_failures
             << " scans fell back to odometry\n";
   std::cerr << std::fixed << std::setprecision(2) << "time: read " << t_read << " s, matching "
-            << st.seconds_matching << " s, loop closure " << st.seconds_loops << " s, optimisation "
+            << st.seconds_matching << " s (+ local maps " << st.seconds_local_map << " s), loop closure " << st.seconds_loops << " s, optimisation "
             << st.seconds_optimizing << " s (graph total " << t_graph << " s), mapping " << t_grid
             << " s, writing " << t_write << " s, total " << Since(t_all) << " s\n"
             << std::defaultfloat;

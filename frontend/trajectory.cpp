@@ -1,6 +1,7 @@
 #include "frontend/trajectory.h"
 
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -148,20 +149,19 @@ std::vector<std::pair<size_t, size_t>> Associate(const Trajectory& est, const Tr
     }
     return pairs;
   }
-  // Key: (stamp rounded to 1e-6 of its magnitude, occurrence number).
+  // Equal stamps (a log that prints times too coarsely) pair in order of
+  // appearance, but only when both sides hold the same number of them:
+  // otherwise which is which cannot be told, and the group is left out.
   auto key = [](double s) { return std::llround(s * 1e6); };
-  std::map<std::pair<long long, int>, size_t> ref_at;
-  std::map<long long, int> seen;
-  for (size_t j = 0; j < ref.size(); ++j) {
-    const long long k = key(ref.stamps[j]);
-    ref_at.emplace(std::make_pair(k, seen[k]++), j);
+  std::map<long long, std::vector<size_t>> ref_at, est_at;
+  for (size_t j = 0; j < ref.size(); ++j) ref_at[key(ref.stamps[j])].push_back(j);
+  for (size_t i = 0; i < est.size(); ++i) est_at[key(est.stamps[i])].push_back(i);
+  for (const auto& [k, is] : est_at) {
+    auto it = ref_at.find(k);
+    if (it == ref_at.end() || it->second.size() != is.size()) continue;
+    for (size_t m = 0; m < is.size(); ++m) pairs.emplace_back(is[m], it->second[m]);
   }
-  seen.clear();
-  for (size_t i = 0; i < est.size(); ++i) {
-    const long long k = key(est.stamps[i]);
-    auto it = ref_at.find({k, seen[k]++});
-    if (it != ref_at.end()) pairs.emplace_back(i, it->second);
-  }
+  std::sort(pairs.begin(), pairs.end());
   return pairs;
 }
 

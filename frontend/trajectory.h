@@ -42,9 +42,11 @@ struct TrajectoryErrors {
   size_t rpe_pairs = 0;
 };
 
-// Pairs poses of `est` and `ref`: by scan index when both know it, else by
-// stamp (equal stamps pair in order of appearance, since some logs print
-// times too coarsely to tell scans apart).
+// Pairs poses of `est` and `ref`, in est's order: by scan index when both
+// know it; a g2o graph's vertex k with the k-th pose of the other file; else
+// by stamp. Equal stamps (some logs print times too coarsely to tell scans
+// apart) pair in order of appearance when both sides hold as many of them,
+// and are left out otherwise.
 std::vector<std::pair<size_t, size_t>> Associate(const Trajectory& est, const Trajectory& ref);
 
 // ATE after the least-squares rigid (rotation + translation) alignment of

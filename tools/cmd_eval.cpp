@@ -20,7 +20,8 @@ int RunEval(int argc, char** argv) {
                  "EST onto REF) and relative pose error over segments of reference path, for\n"
                  "planar trajectories. Each file is TUM text ('t x y z qx qy qz qw'), a g2o graph\n"
                  "(its VERTEX_SE2 poses) or a CARMEN log (the poses on its laser lines). Poses pair\n"
-                 "by timestamp (equal stamps in order of appearance); two CARMEN logs pair by scan;\n"
+                 "by timestamp (equal stamps in order of appearance, and only when both files hold as\n"
+                 "many: else they are left out, with a warning); two CARMEN logs pair by scan;\n"
                  "a g2o graph has no times, so vertex k pairs with the k-th pose of the other file\n"
                  "(e.g. 'cairn map' numbers keyframes as PREFIX_trajectory.tum lists them).");
   args.Positional("EST", &est_path, "estimated trajectory");
@@ -36,6 +37,10 @@ int RunEval(int argc, char** argv) {
   const frontend::Trajectory est = frontend::ReadTrajectory(est_path);
   const frontend::Trajectory ref = frontend::ReadTrajectory(ref_path);
   const frontend::TrajectoryErrors e = frontend::EvaluateTrajectory(est, ref, segment);
+  if (e.matched < est.size())
+    std::cerr << "cairn: warning: " << est.size() - e.matched << " of " << est.size()
+              << " poses of " << est_path << " have no unambiguous partner in " << ref_path
+              << " (missing or repeated timestamps)\n";
   if (e.matched < 2) {
     PrintError("only " + std::to_string(e.matched) + " poses of " + est_path + " pair with " +
                ref_path + " (need 2)");

@@ -1,0 +1,154 @@
+#include "backend/sparse_cholesky.h"
+
+#include <cholmod.h>
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <cstring>
+#include <stdexcept>
+
+namespace cairn {
+
+CholeskyKind ParseCholeskyKind(const std::string& name) {
+  if (name == "cholmod" || name == "supernodal") return CholeskyKind::kCholmodSupernodal;
+  if (name == "simplicial") return CholeskyKind::kCholmodSimplicial;
+  if (name == "auto") return CholeskyKind::kCholmodAuto;
+  if (name == "eigen") return CholeskyKind::kEigenLDLT;
+  throw std::invalid_argument("unknown linear solver '" + name +
+                              "' (supernodal, simplicial, auto or eigen)");
+}
+
+const char* ToString(CholeskyKind kind) {
+  switch (kind) {
+    case CholeskyKind::kCholmodSupernodal: return "cholmod-supernodal";
+    case CholeskyKind::kCholmodSimplicial: return "cholmod-simplicial";
+    case CholeskyKind::kCholmodAuto: return "cholmod-auto";
+    case CholeskyKind::kEigenLDLT: return "eigen-ldlt";
+  }
+  return "?";
+}
+
+namespace {
+
+class Cholmod final : public SparseCholesky {
+ public:
+  explicit Cholmod(int mode) {
+    cholmod_start(&common_);
+    common_.supernodal = mode;
+    // AMD alone: the default also tries METIS/NESDIS, which costs more in the
+    // one-off analysis than it saves on pose graphs.
+    common_.nmethods = 1;
+    common_.method[0].ordering = CHOLMOD_AMD;
+    common_.postorder = 1;
+    common_.print = 0;
+    common_.error_handler = nullptr;
+  }
+  ~Cholmod() override {
+    if (factor_) cholmod_free_factor(&factor_, &common_);
+    if (a_) cholmod_free_sparse(&a_, &common_);
+    if (x_) cholmod_free_dense(&x_, &common_);
+    if (b_) cholmod_free_dense(&b_, &common_);
+    if (y_) cholmod_free_dense(&y_, &common_);
+    if (e_) cholmod_free_dense(&e_, &common_);
+    cholmod_finish(&common_);
+  }
+
+  void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows) override {
+    n_ = n;
+    a_ = cholmod_allocate_sparse(n, n, rows.size(), /*sorted=*/1, /*packed=*/1, /*stype=*/1,
+                                 CHOLMOD_REAL, &common_);
+    if (!a_) throw std::runtime_error("CHOLMOD: out of memory allocating the normal matrix");
+    std::memcpy(a_->p, col_ptr.data(), sizeof(int) * (n + 1));
+    std::memcpy(a_->i, rows.data(), sizeof(int) * rows.size());
+    std::memset(a_->x, 0, sizeof(double) * rows.size());
+    factor_ = cholmod_analyze(a_, &common_);
+    if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
+    b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, &common_);
+  }
+
+  double* values() override { return static_cast<double*>(a_->x); }
+
+  bool Factorize() override {
+    const int ok = cholmod_factorize(a_, factor_, &common_);
+    return ok && common_.status == CHOLMOD_OK;
+  }
+
+  void Solve(const double* b, double* x) override {
+    std::memcpy(b_->x, b, sizeof(double) * n_);
+    // cholmod_solve2 keeps its result and workspace between calls.
+    cholmod_solve2(CHOLMOD_A, factor_, b_, nullptr, &x_, nullptr, &y_, &e_, &common_);
+    std::memcpy(x, x_->x, sizeof(double) * n_);
+  }
+
+  long FactorNonZeros() const override {
+    if (!factor_) return 0;
+    if (factor_->is_super) {
+      long nz = 0;
+      const int* super = static_cast<const int*>(factor_->super);
+      const int* pi = static_cast<const int*>(factor_->pi);
+      for (size_t s = 0; s < factor_->nsuper; ++s) {
+        const long cols = super[s + 1] - super[s], rows = pi[s + 1] - pi[s];
+        nz += cols * rows - cols * (cols - 1) / 2;
+      }
+      return nz;
+    }
+    long nz = 0;
+    const int* cnt = static_cast<const int*>(factor_->nz);
+    for (size_t j = 0; j < factor_->n; ++j) nz += cnt[j];
+    return nz;
+  }
+
+  bool IsSupernodal() const override { return factor_ && factor_->is_super; }
+
+ private:
+  cholmod_common common_;
+  cholmod_sparse* a_ = nullptr;
+  cholmod_factor* factor_ = nullptr;
+  cholmod_dense *b_ = nullptr, *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;
+  int n_ = 0;
+};
+
+class EigenLDLT final : public SparseCholesky {
+ public:
+  void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows) override {
+    a_.resize(n, n);
+    a_.resizeNonZeros(static_cast<Eigen::Index>(rows.size()));
+    std::memcpy(a_.outerIndexPtr(), col_ptr.data(), sizeof(int) * (n + 1));
+    std::memcpy(a_.innerIndexPtr(), rows.data(), sizeof(int) * rows.size());
+    std::fill(a_.valuePtr(), a_.valuePtr() + rows.size(), 0.0);
+    ldlt_.analyzePattern(a_);
+  }
+  double* values() override { return a_.valuePtr(); }
+  bool Factorize() override {
+    ldlt_.factorize(a_);
+    if (ldlt_.info() != Eigen::Success) return false;
+    nnz_ = ldlt_.matrixL().nestedExpression().nonZeros();
+    return (ldlt_.vectorD().array() > 0).all();
+  }
+  void Solve(const double* b, double* x) override {
+    Eigen::Map<Eigen::VectorXd>(x, a_.rows()) =
+        ldlt_.solve(Eigen::Map<const Eigen::VectorXd>(b, a_.rows()));
+  }
+  long FactorNonZeros() const override { return nnz_; }
+  bool IsSupernodal() const override { return false; }
+
+ private:
+  // Eigen's IndexType int matches CHOLMOD's, so one pattern serves both.
+  Eigen::SparseMatrix<double, Eigen::ColMajor, int> a_;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double, Eigen::ColMajor, int>, Eigen::Upper> ldlt_;
+  long nnz_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<SparseCholesky> SparseCholesky::Create(CholeskyKind kind) {
+  switch (kind) {
+    case CholeskyKind::kCholmodSupernodal: return std::make_unique<Cholmod>(CHOLMOD_SUPERNODAL);
+    case CholeskyKind::kCholmodSimplicial: return std::make_unique<Cholmod>(CHOLMOD_SIMPLICIAL);
+    case CholeskyKind::kCholmodAuto: return std::make_unique<Cholmod>(CHOLMOD_AUTO);
+    case CholeskyKind::kEigenLDLT: return std::make_unique<EigenLDLT>();
+  }
+  return nullptr;
+}
+
+}  // namespace cairn

@@ -1,0 +1,62 @@
+// cairn info: what a pose-graph file holds and its chi-squared.
+#include <cstdio>
+#include <iostream>
+
+#include "backend/chi2.h"
+#include "backend/graph_io.h"
+#include "backend/initialization.h"
+#include "tools/args.h"
+#include "tools/command.h"
+
+namespace cairn::tools {
+namespace {
+
+int RunInfo(int argc, char** argv) {
+  std::string path;
+  bool json = false, strict = false;
+  ArgParser args("info FILE [--json] [--strict]",
+                 "Reads a g2o or TORO pose graph and prints its vertices, odometry edges,\n"
+                 "loop closures, priors, fixed vertices, connected components and the\n"
+                 "chi-squared of the estimate in the file (g2o's definition: the sum of\n"
+                 "e^T Omega e over the edges). A file without vertices gets them from its\n"
+                 "edges along a spanning tree, and its chi-squared is of that estimate.");
+  args.Positional("FILE", &path, "a .g2o or TORO .graph file");
+  args.Flag("json", &json, "print one JSON object (keys vertices, odometry_edges, loop_closures, "
+                           "priors, fixed, components, chi2, dimension)");
+  args.Flag("strict", &strict, "refuse tags cairn does not know instead of skipping them");
+  int code = 0;
+  if (!args.Parse(argc, argv, &code)) return code;
+
+  ReadOptions options;
+  options.strict = strict;
+  options.warnings = &std::cerr;
+  const PoseGraph graph = ReadGraph(path, options);
+  const size_t components = ConnectedComponents(graph).size();
+  const double chi2 = Chi2(graph);
+  if (json) {
+    std::printf(
+        "{\"file\": \"%s\", \"dimension\": %d, \"vertices\": %zu, \"odometry_edges\": %zu, "
+        "\"loop_closures\": %zu, \"priors\": %zu, \"fixed\": %zu, \"components\": %zu, "
+        "\"chi2\": %.17g}\n",
+        path.c_str(), graph.dimension(), graph.vertices().size(),
+        graph.CountEdges(EdgeKind::kOdometry), graph.CountEdges(EdgeKind::kLoopClosure),
+        graph.CountEdges(EdgeKind::kPrior), graph.CountFixed(), components, chi2);
+    return 0;
+  }
+  std::printf("file            %s\n", path.c_str());
+  std::printf("dimension       %dD (%s)\n", graph.dimension(), graph.dimension() == 2 ? "SE2" : "SE3");
+  std::printf("vertices        %zu\n", graph.vertices().size());
+  std::printf("odometry edges  %zu\n", graph.CountEdges(EdgeKind::kOdometry));
+  std::printf("loop closures   %zu\n", graph.CountEdges(EdgeKind::kLoopClosure));
+  std::printf("priors          %zu\n", graph.CountEdges(EdgeKind::kPrior));
+  std::printf("fixed vertices  %zu\n", graph.CountFixed());
+  std::printf("components      %zu\n", components);
+  std::printf("chi2            %.10g\n", chi2);
+  return 0;
+}
+
+}  // namespace
+
+CAIRN_COMMAND("info", "counts and chi-squared of a pose-graph file", RunInfo);
+
+}  // namespace cairn::tools

@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 #include <stdexcept>
+#include <thread>
 
 #include "backend/parallel.h"
 
@@ -148,7 +149,10 @@ double GaussNewtonProblem::Chi2() {
 SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   SolveResult result;
-  ThreadPool pool(std::max(1, options.threads));
+  result.solver = "gn";
+  ThreadPool pool(options.threads > 0
+                      ? options.threads
+                      : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
   Workspace w;
 
   // Variables: non-constant blocks that some residual touches, in order.
@@ -269,9 +273,11 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
 
   const auto ta = std::chrono::steady_clock::now();
   w.cholesky = SparseCholesky::Create(options.linear_solver);
-  if (w.n > 0) w.cholesky->Analyze(w.n, col_ptr, rows);
+  std::vector<int> block_sizes;
+  for (int v : variables) block_sizes.push_back(blocks_[v].tangent);
+  if (w.n > 0) w.cholesky->Analyze(w.n, col_ptr, rows, block_sizes);
   result.linear_solver_time_s += Seconds(ta);
-  if (getenv("CAIRN_DEBUG")) fprintf(stderr, "setup %.4f analyze %.4f nnzL?\n", Seconds(t0), Seconds(ta));
+
 
   // Residuals only (jacobians == false) or with local Jacobians.
   auto evaluate = [&](bool jacobians) -> double {
@@ -401,47 +407,52 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
     });
   };
 
-  auto progress = [&](const IterationRecord& it, double lambda, double lin_s, double solve_s) {
-    if (!options.verbose) return;
-    if (it.iteration == 0) {
-      std::fprintf(stderr, "%4s %14s %11s %10s %9s %9s %9s\n", "iter", "chi2", "step", "lambda",
-                   "lin_s", "solve_s", "total_s");
-      std::fprintf(stderr, "%4d %14.8e %11s %10s %9s %9s %9.4f\n", 0, it.chi2, "", "", "", "",
-                   it.time_s);
-      return;
-    }
-    std::fprintf(stderr, "%4d %14.8e %11.4e %10.2e %9.4f %9.4f %9.4f\n", it.iteration, it.chi2,
-                 it.step_norm, lambda, lin_s, solve_s, it.time_s);
+  auto progress = [&](const IterationRecord& it) {
+    if (options.verbose) std::fprintf(stderr, "%s\n", FormatIteration(it).c_str());
   };
 
+  result.setup_time_s = Seconds(t0);
   double chi2 = evaluate(false);
   result.initial_chi2 = chi2;
-  result.trace.push_back({0, chi2, 0, Seconds(t0)});
-  progress(result.trace.back(), 0, 0, 0);
-  if (!std::isfinite(chi2)) {
-    result.termination = "the initial estimate gives a non-finite chi-squared";
+  auto record = [&](int iteration, double step_norm, bool accepted, double solve_s) {
+    IterationRecord it;
+    it.iteration = iteration;
+    it.chi2 = chi2;
+    it.step_norm = step_norm;
+    it.time_s = Seconds(t0);
+    it.accepted = accepted;
+    it.linear_solver_time_s = solve_s;
+    result.trace.push_back(it);
+    progress(it);
+  };
+  record(0, 0, true, 0);
+  auto finish = [&](const char* termination, const std::string& message, bool converged) {
+    result.termination = termination;
+    result.message = message;
+    result.converged = converged;
     result.final_chi2 = chi2;
+    result.usable = std::isfinite(chi2) && chi2 <= result.initial_chi2;
     result.time_s = Seconds(t0);
     return result;
-  }
-  if (w.n == 0) {
-    result.final_chi2 = chi2;
-    result.converged = true;
-    result.termination = "nothing to optimise: every parameter block is constant";
-    result.time_s = Seconds(t0);
-    return result;
-  }
+  };
+  if (!std::isfinite(chi2))
+    return finish("failure", "the initial estimate gives a non-finite chi-squared", false);
+  if (w.n == 0) return finish("convergence", "nothing to optimise: every block is constant", true);
 
-  double x_norm = 0;
-  for (double v : x_saved) x_norm += v * v;
   for (int iter = 1; iter <= options.max_iterations; ++iter) {
     const auto tl = std::chrono::steady_clock::now();
     linearize();
-    const double lin_s = Seconds(tl);
-    result.linearize_time_s += lin_s;
+    result.linearize_time_s += Seconds(tl);
+    const double g_max = Eigen::Map<const Eigen::VectorXd>(w.b.data(), w.n).cwiseAbs().maxCoeff();
+    if (g_max <= options.gradient_tolerance)
+      return finish("convergence",
+                    "gradient tolerance reached: max |g| " + std::to_string(g_max), true);
     double* h = w.cholesky->values();
     for (int i = 0; i < w.n; ++i) w.diagonal_saved[i] = h[w.diagonal[i]];
     save_x();
+    double x_norm = 0;
+    for (double v : x_saved) x_norm += v * v;
+    x_norm = std::sqrt(x_norm);
 
     double lambda = 0, solve_s = 0, new_chi2 = chi2, step_norm = 0;
     bool accepted = false;
@@ -453,14 +464,12 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
       if (ok) {
         w.cholesky->Solve(w.b.data(), w.dx.data());
         for (double& d : w.dx) d = -d;
+        step_norm = Eigen::Map<const Eigen::VectorXd>(w.dx.data(), w.n).norm();
+        ok = std::isfinite(step_norm);
       }
       const double s = Seconds(ts);
       solve_s += s;
       result.linear_solver_time_s += s;
-      if (ok) {
-        step_norm = Eigen::Map<const Eigen::VectorXd>(w.dx.data(), w.n).norm();
-        ok = std::isfinite(step_norm);
-      }
       if (ok) {
         apply_step();
         const auto te = std::chrono::steady_clock::now();
@@ -474,40 +483,33 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
       }
       const double next = lambda == 0 ? options.damping : lambda * 10;
       if (options.verbose)
-        std::fprintf(stderr, "     %s; retrying with damping %.1e\n",
-                     !ok ? "the normal equations are not positive definite"
+        std::fprintf(stderr, "         %s; trying a damped step (lambda %.1e)\n",
+                     !ok ? "normal equations not positive definite"
                          : (lambda == 0 ? "Gauss-Newton step raised chi2" : "damped step raised chi2"),
                      next);
       lambda = next;
       if (lambda > 1e12) break;
     }
+    result.iterations = iter;
     if (!accepted) {
-      result.termination = "no step lowers chi-squared (damping exhausted); kept the best estimate";
-      result.converged = true;  // a minimum to the solver's precision
-      break;
+      record(iter, step_norm, false, solve_s);
+      return finish("convergence",
+                    "no step lowers chi-squared, damped or not: the estimate is a minimum "
+                    "to the solver's precision",
+                    true);
     }
     const double decrease = (chi2 - new_chi2) / std::max(chi2, std::numeric_limits<double>::min());
     chi2 = new_chi2;
-    result.iterations = iter;
-    result.trace.push_back({iter, chi2, step_norm, Seconds(t0)});
-    progress(result.trace.back(), lambda, lin_s, solve_s);
-    if (decrease < options.function_tolerance) {
-      result.termination = "function tolerance reached: relative decrease " +
-                           std::to_string(decrease) + " below the tolerance";
-      result.converged = true;
-      break;
-    }
-    if (step_norm <= options.step_tolerance * (std::sqrt(x_norm) + options.step_tolerance)) {
-      result.termination = "step tolerance reached";
-      result.converged = true;
-      break;
-    }
-    if (iter == options.max_iterations) result.termination = "iteration limit reached";
+    record(iter, step_norm, true, solve_s);
+    if (decrease < options.function_tolerance)
+      return finish("convergence",
+                    "function tolerance reached: relative decrease " + std::to_string(decrease),
+                    true);
+    if (step_norm <= options.parameter_tolerance * (x_norm + options.parameter_tolerance))
+      return finish("convergence", "parameter tolerance reached", true);
   }
-  if (result.termination.empty()) result.termination = "iteration limit reached";
-  result.final_chi2 = chi2;
-  result.time_s = Seconds(t0);
-  return result;
+  return finish("no_convergence",
+                "iteration limit reached (" + std::to_string(options.max_iterations) + ")", false);
 }
 
 }  // namespace cairn

@@ -18,19 +18,14 @@
 
 namespace cairn {
 
-struct GaussNewtonOptions {
-  int max_iterations = 100;
-  // Stop when an accepted step lowers chi-squared by less than this fraction.
-  double function_tolerance = 1e-12;
-  // Stop when |dx| <= step_tolerance * (|x| + step_tolerance).
-  double step_tolerance = 1e-12;
+// The common options (iterations, tolerances, threads, progress, robust
+// loss for loop closures) mean the same as for the Ceres path.
+struct GaussNewtonOptions : SolverOptions {
   // First Levenberg-Marquardt damping (times diag(H)) tried when a pure
   // Gauss-Newton step would raise chi-squared; multiplied by 10 until a step
   // lowers it.
   double damping = 1e-4;
-  int threads = 2;
   CholeskyKind linear_solver = CholeskyKind::kCholmodSupernodal;
-  bool verbose = true;  // one progress line per iteration on stderr
 };
 
 // A least-squares problem in the shape of ceres::Problem, for our solver.

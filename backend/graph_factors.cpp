@@ -18,16 +18,35 @@ ceres::CostFunction* MakeCostFunction(const PoseGraph& graph, const Edge& edge) 
              : factors::SE3BetweenFactor::Create(z.rotation(), z.translation(), edge.information);
 }
 
+std::unique_ptr<ceres::LossFunction> MakeLoss(const RobustLoss& loss) {
+  switch (loss.kind) {
+    case RobustLoss::kNone: return nullptr;
+    case RobustLoss::kHuber: return std::make_unique<ceres::HuberLoss>(loss.delta);
+    case RobustLoss::kCauchy: return std::make_unique<ceres::CauchyLoss>(loss.delta);
+  }
+  return nullptr;
+}
+
+std::vector<bool> TouchedVertices(const PoseGraph& graph) {
+  std::vector<bool> touched(graph.vertices().size(), false);
+  for (const Edge& e : graph.edges()) {
+    touched[graph.VertexIndex(e.from)] = true;
+    if (!e.IsPrior()) touched[graph.VertexIndex(e.to)] = true;
+  }
+  return touched;
+}
+
 std::vector<bool> HeldConstant(const PoseGraph& graph) {
   const auto& vertices = graph.vertices();
+  const std::vector<bool> touched = TouchedVertices(graph);
   std::vector<bool> held(vertices.size(), false);
   bool any = false;
-  for (size_t i = 0; i < vertices.size(); ++i) any |= held[i] = vertices[i].fixed;
-  if (any || graph.CountEdges(EdgeKind::kPrior) > 0 || vertices.empty()) return held;
-  size_t lowest = 0;
-  for (size_t i = 1; i < vertices.size(); ++i)
-    if (vertices[i].id < vertices[lowest].id) lowest = i;
-  held[lowest] = true;
+  for (size_t i = 0; i < vertices.size(); ++i) any |= held[i] = touched[i] && vertices[i].fixed;
+  if (any || graph.CountEdges(EdgeKind::kPrior) > 0) return held;
+  long lowest = -1;
+  for (size_t i = 0; i < vertices.size(); ++i)
+    if (touched[i] && (lowest < 0 || vertices[i].id < vertices[lowest].id)) lowest = static_cast<long>(i);
+  if (lowest >= 0) held[lowest] = true;
   return held;
 }
 

@@ -7,9 +7,9 @@
 
 namespace cairn {
 
-// Optimises the graph's vertices in place. `loop_closure_loss` (owned by the
-// caller, may be null) robustifies loop-closure edges.
-SolveResult SolveGaussNewton(PoseGraph& graph, const GaussNewtonOptions& options,
-                             const ceres::LossFunction* loop_closure_loss = nullptr);
+// Optimises the graph's vertices in place; options.loop_closure_loss
+// robustifies loop-closure edges. initial_chi2 and final_chi2 are g2o's
+// (without the robust loss), as on the Ceres path.
+SolveResult SolveGaussNewton(PoseGraph& graph, const GaussNewtonOptions& options = {});
 
 }  // namespace cairn

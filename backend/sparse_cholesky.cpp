@@ -53,7 +53,8 @@ class Cholmod final : public SparseCholesky {
     cholmod_finish(&common_);
   }
 
-  void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows) override {
+  void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
+               const std::vector<int>& block_sizes) override {
     n_ = n;
     a_ = cholmod_allocate_sparse(n, n, rows.size(), /*sorted=*/1, /*packed=*/1, /*stype=*/1,
                                  CHOLMOD_REAL, &common_);
@@ -61,7 +62,13 @@ class Cholmod final : public SparseCholesky {
     std::memcpy(a_->p, col_ptr.data(), sizeof(int) * (n + 1));
     std::memcpy(a_->i, rows.data(), sizeof(int) * rows.size());
     std::memset(a_->x, 0, sizeof(double) * rows.size());
-    factor_ = cholmod_analyze(a_, &common_);
+    const std::vector<int> perm = BlockOrdering(n, col_ptr, rows, block_sizes);
+    if (!perm.empty()) {
+      common_.method[0].ordering = CHOLMOD_GIVEN;
+      factor_ = cholmod_analyze_p(a_, const_cast<int*>(perm.data()), nullptr, 0, &common_);
+    } else {
+      factor_ = cholmod_analyze(a_, &common_);
+    }
     if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
     b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, &common_);
   }
@@ -101,6 +108,42 @@ class Cholmod final : public SparseCholesky {
   bool IsSupernodal() const override { return factor_ && factor_->is_super; }
 
  private:
+  // AMD on the block graph, expanded to scalars; empty when not blocked.
+  std::vector<int> BlockOrdering(int n, const std::vector<int>& col_ptr,
+                                 const std::vector<int>& rows,
+                                 const std::vector<int>& block_sizes) {
+    if (block_sizes.size() < 2) return {};
+    const int nb = static_cast<int>(block_sizes.size());
+    std::vector<int> first(nb + 1, 0), block_of(n);
+    for (int b = 0; b < nb; ++b) first[b + 1] = first[b] + block_sizes[b];
+    if (first[nb] != n) throw std::invalid_argument("block sizes do not add up to the matrix size");
+    for (int b = 0; b < nb; ++b)
+      for (int i = first[b]; i < first[b + 1]; ++i) block_of[i] = b;
+    // The last scalar column of a block holds every block row it touches.
+    std::vector<int> bp(nb + 1, 0), bi;
+    for (int b = 0; b < nb; ++b) {
+      const int col = first[b + 1] - 1;
+      int last = -1;
+      for (int k = col_ptr[col]; k < col_ptr[col + 1]; ++k) {
+        const int rb = block_of[rows[k]];
+        if (rb != last) bi.push_back(last = rb);
+      }
+      bp[b + 1] = static_cast<int>(bi.size());
+    }
+    cholmod_sparse* pattern = cholmod_allocate_sparse(nb, nb, bi.size(), 1, 1, 1, CHOLMOD_PATTERN, &common_);
+    std::memcpy(pattern->p, bp.data(), sizeof(int) * (nb + 1));
+    std::memcpy(pattern->i, bi.data(), sizeof(int) * bi.size());
+    std::vector<int> block_perm(nb);
+    const int ok = cholmod_amd(pattern, nullptr, 0, block_perm.data(), &common_);
+    cholmod_free_sparse(&pattern, &common_);
+    if (!ok) return {};
+    std::vector<int> perm;
+    perm.reserve(n);
+    for (int b : block_perm)
+      for (int i = first[b]; i < first[b + 1]; ++i) perm.push_back(i);
+    return perm;
+  }
+
   cholmod_common common_;
   cholmod_sparse* a_ = nullptr;
   cholmod_factor* factor_ = nullptr;
@@ -110,7 +153,8 @@ class Cholmod final : public SparseCholesky {
 
 class EigenLDLT final : public SparseCholesky {
  public:
-  void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows) override {
+  void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
+               const std::vector<int>&) override {
     a_.resize(n, n);
     a_.resizeNonZeros(static_cast<Eigen::Index>(rows.size()));
     std::memcpy(a_.outerIndexPtr(), col_ptr.data(), sizeof(int) * (n + 1));

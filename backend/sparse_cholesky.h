@@ -26,8 +26,11 @@ class SparseCholesky {
   static std::unique_ptr<SparseCholesky> Create(CholeskyKind kind);
 
   // The upper triangle of a symmetric n x n matrix in compressed columns,
-  // rows sorted within each column. Called once.
-  virtual void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows) = 0;
+  // rows sorted within each column. Called once. `block_sizes`, if not
+  // empty, splits the rows into dense diagonal blocks (one per pose): the
+  // fill-reducing ordering is then computed on the far smaller block graph.
+  virtual void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
+                       const std::vector<int>& block_sizes = {}) = 0;
   // The matrix's values, in the order of `rows`; callers write into it.
   virtual double* values() = 0;
   // False when the matrix is not positive definite.

@@ -62,11 +62,21 @@ struct GaussNewtonProblem::Workspace {
   std::vector<double> diagonal_saved;
   std::vector<double> b, dx, x_saved;
   std::unique_ptr<SparseCholesky> cholesky;
+  std::vector<int> variables;  // non-constant blocks, in H's order
+  CholeskyKind linear_solver = CholeskyKind::kAuto;
   int n = 0;
+  int max_tangent = 1, max_size = 1;
+  size_t max_arity = 1;
 };
 
 GaussNewtonProblem::GaussNewtonProblem() = default;
 GaussNewtonProblem::~GaussNewtonProblem() = default;
+
+int GaussNewtonProblem::TangentDimension() const { return ws_ ? ws_->n : 0; }
+long GaussNewtonProblem::FactorNonZeros() const { return ws_ ? ws_->cholesky->FactorNonZeros() : 0; }
+CholeskyKind GaussNewtonProblem::LinearSolver() const {
+  return ws_ ? ws_->linear_solver : CholeskyKind::kAuto;
+}
 
 int GaussNewtonProblem::NumParameterBlocks() const { return static_cast<int>(blocks_.size()); }
 int GaussNewtonProblem::NumResidualBlocks() const { return static_cast<int>(residuals_.size()); }
@@ -146,20 +156,18 @@ double GaussNewtonProblem::Chi2() {
   return sum;
 }
 
-SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
-  const auto t0 = std::chrono::steady_clock::now();
-  SolveResult result;
-  result.solver = "gn";
-  ThreadPool pool(options.threads > 0
-                      ? options.threads
-                      : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
-  Workspace w;
+void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
+  pool_ = std::make_unique<ThreadPool>(
+      options.threads > 0 ? options.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  ws_ = std::make_unique<Workspace>();
+  Workspace& w = *ws_;
 
   // Variables: non-constant blocks that some residual touches, in order.
   std::vector<bool> used(blocks_.size(), false);
   for (const Residual& r : residuals_)
     for (int b : r.blocks) used[b] = true;
-  std::vector<int> variables;
+  std::vector<int>& variables = w.variables;
   for (size_t i = 0; i < blocks_.size(); ++i) {
     Block& b = blocks_[i];
     b.offset = -1;
@@ -171,13 +179,11 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
     variables.push_back(static_cast<int>(i));
   }
   const int nvar = static_cast<int>(variables.size());
-  int max_tangent = 1, max_size = 1;
-  size_t max_arity = 1;
   for (const Block& b : blocks_) {
-    max_tangent = std::max(max_tangent, b.tangent);
-    max_size = std::max(max_size, b.size);
+    w.max_tangent = std::max(w.max_tangent, b.tangent);
+    w.max_size = std::max(w.max_size, b.size);
   }
-  for (const Residual& r : residuals_) max_arity = std::max(max_arity, r.blocks.size());
+  for (const Residual& r : residuals_) w.max_arity = std::max(w.max_arity, r.blocks.size());
 
   // Residual and Jacobian storage.
   int r_total = 0, ja_total = 0, jl_total = 0;
@@ -267,24 +273,23 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   w.b.resize(w.n);
   w.dx.resize(w.n);
   w.diagonal_saved.resize(w.n);
-  std::vector<double> x_saved;
-  for (int v : variables) x_saved.insert(x_saved.end(), blocks_[v].values, blocks_[v].values + blocks_[v].size);
-  std::vector<double> x_next(x_saved.size());
+  for (int v : variables) w.x_saved.insert(w.x_saved.end(), blocks_[v].values, blocks_[v].values + blocks_[v].size);
 
-  const auto ta = std::chrono::steady_clock::now();
-  w.cholesky = SparseCholesky::Create(options.linear_solver);
+  w.linear_solver = ResolveCholeskyKind(
+      options.linear_solver, nvar > 0 ? static_cast<double>(w.n) / nvar : 0.0);
+  w.cholesky = SparseCholesky::Create(w.linear_solver);
   std::vector<int> block_sizes;
   for (int v : variables) block_sizes.push_back(blocks_[v].tangent);
   if (w.n > 0) w.cholesky->Analyze(w.n, col_ptr, rows, block_sizes);
-  result.linear_solver_time_s += Seconds(ta);
+}
 
 
-  // Residuals only (jacobians == false) or with local Jacobians.
-  auto evaluate = [&](bool jacobians) -> double {
-    bool ok = true;
-    pool.ParallelFor(residuals_.size(), [&](size_t begin, size_t end) {
-      std::vector<const double*> params(max_arity);
-      std::vector<double*> jac(max_arity);
+
+double GaussNewtonProblem::Evaluate(bool jacobians) {
+  Workspace& w = *ws_;
+  pool_->ParallelFor(residuals_.size(), [&](size_t begin, size_t end) {
+      std::vector<const double*> params(w.max_arity);
+      std::vector<double*> jac(w.max_arity);
       for (size_t k = begin; k < end; ++k) {
         const Residual& res = residuals_[k];
         const int m = res.cost->num_residuals();
@@ -296,7 +301,6 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
         }
         double* r = w.r.data() + w.residual_offset[k];
         if (!res.cost->Evaluate(params.data(), r, jacobians ? jac.data() : nullptr)) {
-          ok = false;
           w.chi2_terms[k] = std::numeric_limits<double>::infinity();
           continue;
         }
@@ -323,25 +327,27 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
         }
       }
     });
-    (void)ok;
-    double sum = 0;
-    for (double c : w.chi2_terms) sum += c;
-    return sum;
-  };
+  double sum = 0;
+  for (double c : w.chi2_terms) sum += c;
+  return sum;
+}
 
-  auto linearize = [&]() {
-    pool.ParallelFor(nvar, [&](size_t begin, size_t end) {
+double GaussNewtonProblem::Linearize() {
+  Workspace& w = *ws_;
+  const std::vector<int>& variables = w.variables;
+  const int nvar = static_cast<int>(variables.size());
+    pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
       for (size_t v = begin; v < end; ++v) {
         const Block& b = blocks_[variables[v]];
         if (b.manifold) b.manifold->PlusJacobian(b.values, w.plus_jac.data() + w.plus_jac_off[v]);
       }
     });
-    const double chi2 = evaluate(true);
+    const double chi2 = Evaluate(true);
     double* h = w.cholesky->values();
     // H, block by block; each block written by one thread only.
-    pool.ParallelFor(w.h_block_order.size(), [&](size_t begin, size_t end) {
+    pool_->ParallelFor(w.h_block_order.size(), [&](size_t begin, size_t end) {
       // One buffer per chunk, sized for the largest block.
-      Eigen::MatrixXd buffer(max_tangent, max_tangent);
+      Eigen::MatrixXd buffer(w.max_tangent, w.max_tangent);
       for (size_t t = begin; t < end; ++t) {
         const auto& hb = w.h_blocks[w.h_block_order[t]];
         const int tr = blocks_[variables[hb.row_block]].tangent;
@@ -362,7 +368,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
         }
       }
     });
-    pool.ParallelFor(nvar, [&](size_t begin, size_t end) {
+    pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
       for (size_t v = begin; v < end; ++v) {
         const Block& b = blocks_[variables[v]];
         Eigen::Map<Eigen::VectorXd> g(w.b.data() + b.offset, b.tangent);
@@ -374,45 +380,69 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
         }
       }
     });
+    for (int i = 0; i < w.n; ++i) w.diagonal_saved[i] = w.cholesky->values()[w.diagonal[i]];
     return chi2;
-  };
+}
 
-  auto save_x = [&]() {
-    size_t o = 0;
-    for (int v : variables) {
-      std::copy(blocks_[v].values, blocks_[v].values + blocks_[v].size, x_saved.begin() + o);
-      o += blocks_[v].size;
-    }
-  };
-  auto restore_x = [&]() {
-    size_t o = 0;
-    for (int v : variables) {
-      std::copy(x_saved.begin() + o, x_saved.begin() + o + blocks_[v].size, blocks_[v].values);
-      o += blocks_[v].size;
-    }
-  };
-  auto apply_step = [&]() {
-    pool.ParallelFor(nvar, [&](size_t begin, size_t end) {
-      std::vector<double> tmp(max_size);
-      for (size_t v = begin; v < end; ++v) {
-        Block& b = blocks_[variables[v]];
-        const double* d = w.dx.data() + b.offset;
-        if (b.manifold) {
-          b.manifold->Plus(b.values, d, tmp.data());
-          std::copy(tmp.begin(), tmp.begin() + b.size, b.values);
-        } else {
-          for (int i = 0; i < b.size; ++i) b.values[i] += d[i];
-        }
+bool GaussNewtonProblem::SolveStep(double lambda, double* step_norm) {
+  Workspace& w = *ws_;
+  double* h = w.cholesky->values();
+  for (int i = 0; i < w.n; ++i)
+    h[w.diagonal[i]] = w.diagonal_saved[i] + lambda * std::max(w.diagonal_saved[i], 1e-12);
+  if (!w.cholesky->Factorize()) return false;
+  w.cholesky->Solve(w.b.data(), w.dx.data());
+  for (double& d : w.dx) d = -d;
+  *step_norm = Eigen::Map<const Eigen::VectorXd>(w.dx.data(), w.n).norm();
+  return std::isfinite(*step_norm);
+}
+
+void GaussNewtonProblem::SaveEstimate() {
+  Workspace& w = *ws_;
+  size_t o = 0;
+  for (int v : w.variables) {
+    std::copy(blocks_[v].values, blocks_[v].values + blocks_[v].size, w.x_saved.begin() + o);
+    o += blocks_[v].size;
+  }
+}
+
+void GaussNewtonProblem::RestoreEstimate() {
+  Workspace& w = *ws_;
+  size_t o = 0;
+  for (int v : w.variables) {
+    std::copy(w.x_saved.begin() + o, w.x_saved.begin() + o + blocks_[v].size, blocks_[v].values);
+    o += blocks_[v].size;
+  }
+}
+
+void GaussNewtonProblem::ApplyStep() {
+  Workspace& w = *ws_;
+  pool_->ParallelFor(w.variables.size(), [&](size_t begin, size_t end) {
+    std::vector<double> tmp(w.max_size);
+    for (size_t v = begin; v < end; ++v) {
+      Block& b = blocks_[w.variables[v]];
+      const double* d = w.dx.data() + b.offset;
+      if (b.manifold) {
+        b.manifold->Plus(b.values, d, tmp.data());
+        std::copy(tmp.begin(), tmp.begin() + b.size, b.values);
+      } else {
+        for (int k = 0; k < b.size; ++k) b.values[k] += d[k];
       }
-    });
-  };
+    }
+  });
+}
 
+SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  SolveResult result;
+  result.solver = "gn";
+  Prepare(options);
+  Workspace& w = *ws_;
   auto progress = [&](const IterationRecord& it) {
     if (options.verbose) std::fprintf(stderr, "%s\n", FormatIteration(it).c_str());
   };
 
   result.setup_time_s = Seconds(t0);
-  double chi2 = evaluate(false);
+  double chi2 = Evaluate(false);
   result.initial_chi2 = chi2;
   auto record = [&](int iteration, double step_norm, bool accepted, double solve_s) {
     IterationRecord it;
@@ -428,7 +458,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   record(0, 0, true, 0);
   auto finish = [&](const char* termination, const std::string& message, bool converged) {
     result.termination = termination;
-    result.message = message;
+    result.message = message + " (linear solver " + ToString(w.linear_solver) + ")";
     result.converged = converged;
     result.final_chi2 = chi2;
     result.usable = std::isfinite(chi2) && chi2 <= result.initial_chi2;
@@ -441,45 +471,35 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
 
   for (int iter = 1; iter <= options.max_iterations; ++iter) {
     const auto tl = std::chrono::steady_clock::now();
-    linearize();
+    Linearize();
     result.linearize_time_s += Seconds(tl);
     const double g_max = Eigen::Map<const Eigen::VectorXd>(w.b.data(), w.n).cwiseAbs().maxCoeff();
     if (g_max <= options.gradient_tolerance)
       return finish("convergence",
                     "gradient tolerance reached: max |g| " + std::to_string(g_max), true);
-    double* h = w.cholesky->values();
-    for (int i = 0; i < w.n; ++i) w.diagonal_saved[i] = h[w.diagonal[i]];
-    save_x();
+    SaveEstimate();
     double x_norm = 0;
-    for (double v : x_saved) x_norm += v * v;
+    for (double v : w.x_saved) x_norm += v * v;
     x_norm = std::sqrt(x_norm);
 
     double lambda = 0, solve_s = 0, new_chi2 = chi2, step_norm = 0;
     bool accepted = false;
     for (;;) {
       const auto ts = std::chrono::steady_clock::now();
-      for (int i = 0; i < w.n; ++i)
-        h[w.diagonal[i]] = w.diagonal_saved[i] + lambda * std::max(w.diagonal_saved[i], 1e-12);
-      bool ok = w.cholesky->Factorize();
-      if (ok) {
-        w.cholesky->Solve(w.b.data(), w.dx.data());
-        for (double& d : w.dx) d = -d;
-        step_norm = Eigen::Map<const Eigen::VectorXd>(w.dx.data(), w.n).norm();
-        ok = std::isfinite(step_norm);
-      }
+      bool ok = SolveStep(lambda, &step_norm);
       const double s = Seconds(ts);
       solve_s += s;
       result.linear_solver_time_s += s;
       if (ok) {
-        apply_step();
+        ApplyStep();
         const auto te = std::chrono::steady_clock::now();
-        new_chi2 = evaluate(false);
+        new_chi2 = Evaluate(false);
         result.linearize_time_s += Seconds(te);
         if (std::isfinite(new_chi2) && new_chi2 <= chi2) {
           accepted = true;
           break;
         }
-        restore_x();
+        RestoreEstimate();
       }
       const double next = lambda == 0 ? options.damping : lambda * 10;
       if (options.verbose)

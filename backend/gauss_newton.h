@@ -13,6 +13,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "backend/parallel.h"
 #include "backend/solve_result.h"
 #include "backend/sparse_cholesky.h"
 
@@ -25,7 +26,7 @@ struct GaussNewtonOptions : SolverOptions {
   // Gauss-Newton step would raise chi-squared; multiplied by 10 until a step
   // lowers it.
   double damping = 1e-4;
-  CholeskyKind linear_solver = CholeskyKind::kCholmodSupernodal;
+  CholeskyKind linear_solver = CholeskyKind::kAuto;
 };
 
 // A least-squares problem in the shape of ceres::Problem, for our solver.
@@ -51,14 +52,33 @@ class GaussNewtonProblem {
   double Chi2();
   SolveResult Solve(const GaussNewtonOptions& options);
 
+  // The steps Solve takes, for benchmarks and callers that drive their own
+  // loop. Prepare fixes the pattern of H and runs the symbolic analysis;
+  // Linearize assembles H and b at the current estimate and returns chi2;
+  // SolveStep factorises H + lambda diag(H) and solves for the step (false
+  // if not positive definite); ApplyStep moves the estimate by it.
+  void Prepare(const GaussNewtonOptions& options);
+  double Linearize();
+  bool SolveStep(double lambda, double* step_norm);
+  void ApplyStep();
+  int TangentDimension() const;
+  long FactorNonZeros() const;
+  CholeskyKind LinearSolver() const;  // the one Prepare chose
+
  private:
   struct Block;
   struct Residual;
   struct Workspace;
 
+  double Evaluate(bool jacobians);
+  void SaveEstimate();
+  void RestoreEstimate();
+
   std::vector<Block> blocks_;
   std::unordered_map<const double*, int> block_index_;
   std::vector<Residual> residuals_;
+  std::unique_ptr<Workspace> ws_;
+  std::unique_ptr<ThreadPool> pool_;
 };
 
 }  // namespace cairn

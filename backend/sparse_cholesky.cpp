@@ -10,16 +10,18 @@
 namespace cairn {
 
 CholeskyKind ParseCholeskyKind(const std::string& name) {
+  if (name == "auto") return CholeskyKind::kAuto;
   if (name == "cholmod" || name == "supernodal") return CholeskyKind::kCholmodSupernodal;
   if (name == "simplicial") return CholeskyKind::kCholmodSimplicial;
-  if (name == "auto") return CholeskyKind::kCholmodAuto;
+  if (name == "cholmod-auto") return CholeskyKind::kCholmodAuto;
   if (name == "eigen") return CholeskyKind::kEigenLDLT;
   throw std::invalid_argument("unknown linear solver '" + name +
-                              "' (supernodal, simplicial, auto or eigen)");
+                              "' (auto, supernodal, simplicial, cholmod-auto or eigen)");
 }
 
 const char* ToString(CholeskyKind kind) {
   switch (kind) {
+    case CholeskyKind::kAuto: return "auto";
     case CholeskyKind::kCholmodSupernodal: return "cholmod-supernodal";
     case CholeskyKind::kCholmodSimplicial: return "cholmod-simplicial";
     case CholeskyKind::kCholmodAuto: return "cholmod-auto";
@@ -185,8 +187,15 @@ class EigenLDLT final : public SparseCholesky {
 
 }  // namespace
 
+CholeskyKind ResolveCholeskyKind(CholeskyKind kind, double mean_block_size) {
+  if (kind != CholeskyKind::kAuto) return kind;
+  return mean_block_size >= 4.5 ? CholeskyKind::kCholmodSupernodal
+                                : CholeskyKind::kCholmodSimplicial;
+}
+
 std::unique_ptr<SparseCholesky> SparseCholesky::Create(CholeskyKind kind) {
   switch (kind) {
+    case CholeskyKind::kAuto: return Create(CholeskyKind::kCholmodSupernodal);
     case CholeskyKind::kCholmodSupernodal: return std::make_unique<Cholmod>(CHOLMOD_SUPERNODAL);
     case CholeskyKind::kCholmodSimplicial: return std::make_unique<Cholmod>(CHOLMOD_SIMPLICIAL);
     case CholeskyKind::kCholmodAuto: return std::make_unique<Cholmod>(CHOLMOD_AUTO);

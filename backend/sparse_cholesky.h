@@ -9,16 +9,23 @@
 namespace cairn {
 
 enum class CholeskyKind {
+  kAuto,               // cairn's choice per problem: see ResolveCholeskyKind
   kCholmodSupernodal,  // CHOLMOD, supernodal (BLAS-bound; fast with OpenBLAS)
   kCholmodSimplicial,  // CHOLMOD, simplicial (up-looking; good on small 2D graphs)
   kCholmodAuto,        // CHOLMOD chooses by flops per nonzero
   kEigenLDLT,          // Eigen's SimplicialLDLT with AMD: the fallback without CHOLMOD
 };
 
-// Parses "cholmod", "supernodal", "simplicial", "auto", "eigen"; throws
-// std::invalid_argument otherwise.
+// Parses "auto", "supernodal" (or "cholmod"), "simplicial", "cholmod-auto",
+// "eigen"; throws std::invalid_argument otherwise.
 CholeskyKind ParseCholeskyKind(const std::string& name);
 const char* ToString(CholeskyKind kind);
+
+// kAuto made concrete: CHOLMOD supernodal when the poses are 6-dof blocks
+// (3D: dense 6x6 blocks feed BLAS well), CHOLMOD simplicial for 3-dof
+// blocks (2D: supernodes stay small and their padding costs more than BLAS
+// saves). Measured in docs/benchmarks.md. Other kinds are returned as given.
+CholeskyKind ResolveCholeskyKind(CholeskyKind kind, double mean_block_size);
 
 class SparseCholesky {
  public:

@@ -469,6 +469,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
     return finish("failure", "the initial estimate gives a non-finite chi-squared", false);
   if (w.n == 0) return finish("convergence", "nothing to optimise: every block is constant", true);
 
+  double resume_lambda = 0;
   for (int iter = 1; iter <= options.max_iterations; ++iter) {
     const auto tl = std::chrono::steady_clock::now();
     Linearize();
@@ -482,7 +483,9 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
     for (double v : w.x_saved) x_norm += v * v;
     x_norm = std::sqrt(x_norm);
 
-    double lambda = 0, solve_s = 0, new_chi2 = chi2, step_norm = 0;
+    // Pure Gauss-Newton unless the last iteration needed damping; then start
+    // from a tenth of the damping that worked, back to none once it is small.
+    double lambda = resume_lambda, solve_s = 0, new_chi2 = chi2, step_norm = 0;
     bool accepted = false;
     for (;;) {
       const auto ts = std::chrono::steady_clock::now();
@@ -511,6 +514,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
       if (lambda > 1e12) break;
     }
     result.iterations = iter;
+    resume_lambda = lambda / 10 < options.damping ? 0.0 : lambda / 10;
     if (!accepted) {
       record(iter, step_norm, false, solve_s);
       return finish("convergence",

@@ -17,7 +17,8 @@ ThreadPool::~ThreadPool() {
 
 void ThreadPool::ParallelFor(size_t n, const std::function<void(size_t, size_t)>& fn) {
   const size_t parts = static_cast<size_t>(size());
-  if (parts == 1 || n < 2 * parts) {
+  // Small loops stay on this thread: waking a worker costs more than they do.
+  if (parts == 1 || n < kMinItemsPerThread * parts) {
     fn(0, n);
     return;
   }

@@ -19,6 +19,7 @@ class ThreadPool {
   ThreadPool& operator=(const ThreadPool&) = delete;
 
   int size() const { return static_cast<int>(workers_.size()) + 1; }
+  static constexpr size_t kMinItemsPerThread = 256;
   // Calls fn(begin, end) on contiguous chunks covering [0, n), one chunk per
   // thread, the caller's thread included; returns when all are done.
   void ParallelFor(size_t n, const std::function<void(size_t, size_t)>& fn);

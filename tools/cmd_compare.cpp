@@ -8,6 +8,7 @@
 #include "backend/ceres_solver.h"
 #include "backend/graph_gauss_newton.h"
 #include "backend/graph_io.h"
+#include "backend/initialization.h"
 #include "tools/args.h"
 #include "tools/command.h"
 
@@ -65,10 +66,15 @@ double TimeToReach(const SolveResult& r, double chi2) {
 }
 
 int RunCompare(int argc, char** argv) {
-  std::string path, json, robust = "none", linear_solver = "auto", sparse = "auto";
+  std::string path, json, robust = "none", linear_solver = "auto", sparse = "auto", init = "file";
   bool quiet = false;
   double tol_m = 1e-4, tol_deg = 1e-3, tol_chi2 = 1e-6;
   SolverOptions common;
+  // Tighter than a plain optimize: two solvers agree only near the optimum.
+  common.function_tolerance = 1e-15;
+  common.gradient_tolerance = 1e-12;
+  common.parameter_tolerance = 1e-12;
+  common.max_iterations = 200;
   double damping = GaussNewtonOptions().damping;
   ArgParser args(
       "compare FILE [--json OUT.json] [--tolerance M] [options]",
@@ -96,6 +102,9 @@ int RunCompare(int argc, char** argv) {
   args.Option("gn-damping", &damping, "LAMBDA",
               "gn: first damping tried when a Gauss-Newton step raises chi2");
   args.Option("sparse", &sparse, "LIB", "ceres: auto, suitesparse, eigen or cxsparse");
+  args.Option("init", &init, "METHOD",
+              "initial estimate for both: file (the file's vertices) or spanning-tree "
+              "(measurements chained along the most certain edges)");
   args.Flag("quiet", &quiet, "no per-iteration progress lines");
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
@@ -111,7 +120,13 @@ int RunCompare(int argc, char** argv) {
 
   ReadOptions ro;
   ro.warnings = &std::cerr;
-  const PoseGraph input = ReadGraph(path, ro);
+  PoseGraph input = ReadGraph(path, ro);
+  if (init == "spanning-tree") {
+    InitializeBySpanningTree(input);
+  } else if (init != "file") {
+    PrintError("unknown --init '" + init + "' (expected file or spanning-tree)");
+    return 2;
+  }
   PoseGraph ceres_graph = input, gn_graph = input;
   if (!quiet) std::fprintf(stderr, "-- ceres --\n");
   const SolveResult c = SolveWithCeres(ceres_graph, co);

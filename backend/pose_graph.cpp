@@ -1,6 +1,7 @@
 #include "backend/pose_graph.h"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <stdexcept>
 
 namespace cairn {
@@ -50,6 +51,14 @@ void PoseGraph::AddEdge(const Edge& edge) {
   if (!IsSymmetricPositiveDefinite(Information(edge)))
     throw std::invalid_argument("information matrix is not symmetric positive definite");
   edges_.push_back(edge);
+  if (dimension_ == 2) {
+    // Keep the unused parts canonical so that equal edges compare equal.
+    Edge& e = edges_.back();
+    const Eigen::Matrix3d used = e.information.topLeftCorner<3, 3>();
+    e.information.setZero();
+    e.information.topLeftCorner<3, 3>() = used;
+    std::fill(e.z.begin() + 3, e.z.end(), 0.0);
+  }
 }
 
 size_t PoseGraph::CountEdges(EdgeKind kind) const {

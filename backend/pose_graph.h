@@ -35,7 +35,7 @@ struct Edge {
   int64_t from = 0;  // the constrained vertex of a prior
   int64_t to = -1;   // unused by a prior
   PoseParams z{};    // measurement, laid out like a vertex
-  Matrix6d information = Matrix6d::Identity();  // top-left 3x3 used in 2D
+  Matrix6d information = Matrix6d::Identity();  // 2D: top-left 3x3, rest zero once added
 
   bool IsPrior() const { return kind == EdgeKind::kPrior; }
 };

@@ -1,0 +1,215 @@
+#include "backend/ceres_solver.h"
+
+#include <ceres/iteration_callback.h>
+#include <ceres/solver.h>
+
+#include <algorithm>
+#include <chrono>
+#include <iostream>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "backend/chi2.h"
+#include "factors/pose_manifold.h"
+#include "factors/se2_factors.h"
+#include "factors/se3_factors.h"
+
+namespace cairn {
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+ceres::CostFunction* MakeCost(const PoseGraph& graph, const Edge& edge) {
+  if (graph.dimension() == 2) {
+    const Eigen::Vector3d z(edge.z[0], edge.z[1], edge.z[2]);
+    const Eigen::Matrix3d info = edge.information.topLeftCorner<3, 3>();
+    return edge.IsPrior() ? factors::SE2PriorFactor::Create(z, info)
+                          : factors::SE2BetweenFactor::Create(z, info);
+  }
+  const SE3 z = ToSE3(edge.z);
+  return edge.IsPrior()
+             ? factors::SE3PriorFactor::Create(z.rotation(), z.translation(), edge.information)
+             : factors::SE3BetweenFactor::Create(z.rotation(), z.translation(), edge.information);
+}
+
+std::unique_ptr<ceres::LossFunction> MakeLoss(const RobustLoss& loss) {
+  // Ceres's losses act on the squared norm s = |r|^2 with the same shapes as
+  // g2o's kernels of the same width: Huber s or 2 d sqrt(s) - d^2, Cauchy
+  // d^2 log(1 + s / d^2).
+  switch (loss.kind) {
+    case RobustLoss::kNone: return nullptr;
+    case RobustLoss::kHuber: return std::make_unique<ceres::HuberLoss>(loss.delta);
+    case RobustLoss::kCauchy: return std::make_unique<ceres::CauchyLoss>(loss.delta);
+  }
+  return nullptr;
+}
+
+class TraceCallback : public ceres::IterationCallback {
+ public:
+  TraceCallback(SolveResult* result, bool verbose) : result_(result), verbose_(verbose) {}
+
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    IterationRecord r;
+    r.iteration = s.iteration;
+    r.chi2 = 2 * s.cost;
+    r.step_norm = s.step_norm;
+    r.time_s = s.cumulative_time_in_seconds;
+    r.accepted = s.iteration == 0 || s.step_is_successful;
+    r.linear_solver_time_s = s.step_solver_time_in_seconds;
+    result_->trace.push_back(r);
+    if (verbose_) std::cerr << FormatIteration(r) << "\n";
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  SolveResult* result_;
+  bool verbose_;
+};
+
+std::string Termination(ceres::TerminationType type) {
+  switch (type) {
+    case ceres::CONVERGENCE:
+    case ceres::USER_SUCCESS: return "convergence";
+    case ceres::NO_CONVERGENCE: return "no_convergence";
+    case ceres::FAILURE:
+    case ceres::USER_FAILURE: return "failure";
+  }
+  return "failure";
+}
+
+ceres::SparseLinearAlgebraLibraryType SparseLibraryFor(const PoseGraph& graph,
+                                                       CeresOptions::SparseLibrary choice) {
+  switch (choice) {
+    case CeresOptions::SparseLibrary::kSuiteSparse: return ceres::SUITE_SPARSE;
+    case CeresOptions::SparseLibrary::kEigen: return ceres::EIGEN_SPARSE;
+    case CeresOptions::SparseLibrary::kCxSparse: return ceres::CX_SPARSE;
+    case CeresOptions::SparseLibrary::kAuto: break;
+  }
+  return ceres::SUITE_SPARSE;
+}
+
+}  // namespace
+
+CeresOptions::Method ParseCeresMethod(const std::string& text) {
+  if (text == "lm" || text == "levenberg-marquardt") return CeresOptions::Method::kLevenbergMarquardt;
+  if (text == "dogleg") return CeresOptions::Method::kDogleg;
+  throw std::invalid_argument("unknown method '" + text + "' (expected lm or dogleg)");
+}
+
+CeresOptions::SparseLibrary ParseSparseLibrary(const std::string& text) {
+  if (text == "auto") return CeresOptions::SparseLibrary::kAuto;
+  if (text == "suitesparse") return CeresOptions::SparseLibrary::kSuiteSparse;
+  if (text == "eigen") return CeresOptions::SparseLibrary::kEigen;
+  if (text == "cxsparse") return CeresOptions::SparseLibrary::kCxSparse;
+  throw std::invalid_argument("unknown sparse library '" + text +
+                              "' (expected auto, suitesparse, eigen or cxsparse)");
+}
+
+CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_closure_loss)
+    : manifold_(graph.dimension() == 2 ? factors::MakeSE2Manifold()
+                                       : factors::MakeSE3Manifold()),
+      loop_closure_loss_(MakeLoss(loop_closure_loss)) {
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_ = std::make_unique<ceres::Problem>(po);
+
+  std::vector<bool> touched(graph.vertices().size(), false);
+  bool has_prior = false;
+  for (const Edge& e : graph.edges()) {
+    touched[graph.VertexIndex(e.from)] = true;
+    if (e.IsPrior()) {
+      has_prior = true;
+    } else {
+      touched[graph.VertexIndex(e.to)] = true;
+    }
+  }
+
+  const int size = graph.ParameterSize();
+  bool any_fixed = false;
+  Vertex* lowest = nullptr;
+  for (size_t i = 0; i < graph.vertices().size(); ++i) {
+    if (!touched[i]) continue;
+    Vertex& v = graph.vertices()[i];
+    if (size == 7) {
+      // The factors invert quaternions by conjugation, right only for unit ones.
+      Eigen::Map<Eigen::Quaterniond> q(v.x.data() + 3);
+      q.normalize();
+    }
+    problem_->AddParameterBlock(v.x.data(), size, manifold_.get());
+    if (v.fixed) {
+      problem_->SetParameterBlockConstant(v.x.data());
+      any_fixed = true;
+    }
+    if (!lowest || v.id < lowest->id) lowest = &v;
+  }
+  if (!any_fixed && !has_prior && lowest) {
+    problem_->SetParameterBlockConstant(lowest->x.data());
+    gauge_ = lowest->id;
+  }
+
+  for (const Edge& e : graph.edges()) {
+    ceres::LossFunction* loss =
+        e.kind == EdgeKind::kLoopClosure ? loop_closure_loss_.get() : nullptr;
+    double* xi = graph.vertex(e.from).x.data();
+    if (e.IsPrior()) {
+      problem_->AddResidualBlock(MakeCost(graph, e), loss, xi);
+    } else {
+      problem_->AddResidualBlock(MakeCost(graph, e), loss, xi, graph.vertex(e.to).x.data());
+    }
+  }
+}
+
+SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  SolveResult result;
+  result.solver = "ceres";
+
+  CeresGraphProblem graph_problem(graph, options.loop_closure_loss);
+  // After the problem is built: that normalises the quaternions g2o would.
+  result.initial_chi2 = Chi2(graph);
+
+  ceres::Solver::Options so;
+  so.minimizer_type = ceres::TRUST_REGION;
+  so.trust_region_strategy_type = options.method == CeresOptions::Method::kDogleg
+                                      ? ceres::DOGLEG
+                                      : ceres::LEVENBERG_MARQUARDT;
+  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  so.sparse_linear_algebra_library_type = SparseLibraryFor(graph, options.sparse_library);
+  so.max_num_iterations = options.max_iterations;
+  so.max_solver_time_in_seconds = options.max_time_s;
+  so.num_threads = options.threads > 0
+                       ? options.threads
+                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  so.function_tolerance = options.function_tolerance;
+  so.gradient_tolerance = options.gradient_tolerance;
+  so.parameter_tolerance = options.parameter_tolerance;
+  so.jacobi_scaling = options.jacobi_scaling;
+  so.initial_trust_region_radius = options.initial_trust_region_radius;
+  so.min_lm_diagonal = options.min_lm_diagonal;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  TraceCallback callback(&result, options.verbose);
+  so.callbacks.push_back(&callback);
+  result.setup_time_s = Seconds(start);
+
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &graph_problem.problem(), &summary);
+
+  result.final_chi2 = Chi2(graph);
+  result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  result.linearize_time_s = summary.jacobian_evaluation_time_in_seconds;
+  result.linear_solver_time_s = summary.linear_solver_time_in_seconds;
+  result.termination = Termination(summary.termination_type);
+  result.message = summary.message;
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.usable = summary.IsSolutionUsable();
+  result.time_s = Seconds(start);
+  return result;
+}
+
+}  // namespace cairn

@@ -1,0 +1,76 @@
+// What every solver of a pose graph (Ceres here, the hand-written
+// Gauss-Newton later) accepts and returns, so that `cairn optimize`, the
+// tests and the benchmarks treat them alike. Chi-squared is g2o's throughout:
+// the sum over edges of e^T Omega e, i.e. twice Ceres's cost.
+#pragma once
+
+#include <iosfwd>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace cairn {
+
+// A robust loss applied to loop closures only: odometry and priors are
+// trusted, wrong loop closures are what robust losses are for.
+struct RobustLoss {
+  enum Kind { kNone, kHuber, kCauchy };
+  Kind kind = kNone;
+  double delta = 1.0;  // on the whitened residual's norm, as g2o's kernels
+};
+
+// Parses "none", "huber:DELTA" or "cauchy:DELTA" (DELTA > 0); throws
+// std::invalid_argument with a message naming the bad text.
+RobustLoss ParseRobustLoss(const std::string& text);
+std::string ToString(const RobustLoss& loss);
+
+// Options a user tunes whatever the solver.
+struct SolverOptions {
+  int max_iterations = 100;
+  // Worker threads; 0 means one per hardware thread.
+  int threads = 0;
+  // Stop when the relative decrease of chi2 in one step falls below this.
+  double function_tolerance = 1e-6;
+  // Stop when the largest gradient component (in the tangent space) is below.
+  double gradient_tolerance = 1e-10;
+  // Stop when |step| <= parameter_tolerance * (|x| + parameter_tolerance).
+  double parameter_tolerance = 1e-8;
+  // One progress line per iteration on stderr.
+  bool verbose = false;
+  RobustLoss loop_closure_loss;
+};
+
+struct IterationRecord {
+  int iteration = 0;
+  double chi2 = 0;       // after the iteration (unchanged if the step was refused)
+  double step_norm = 0;  // norm of the tangent step tried
+  double time_s = 0;     // cumulative since the solver started
+  bool accepted = true;  // the step was taken
+  double linear_solver_time_s = 0;  // this iteration's linear solve
+};
+
+struct SolveResult {
+  std::string solver;  // "ceres", "gn", ...
+  double initial_chi2 = 0, final_chi2 = 0;
+  int iterations = 0;  // steps tried, accepted or not
+  // Wall time of the whole solve (problem setup included) and the parts of it
+  // spent linearising (Jacobians) and in the linear solver.
+  double time_s = 0, setup_time_s = 0, linearize_time_s = 0, linear_solver_time_s = 0;
+  // "convergence", "no_convergence" (the iteration or time limit) or "failure".
+  std::string termination;
+  std::string message;  // the solver's own words on why it stopped
+  bool converged = false;
+  bool usable = false;  // the estimate is at least as good as the start
+  std::vector<IterationRecord> trace;
+};
+
+// Writes the result as one JSON object: the fields above (the trace as an
+// array of objects), preceded by `context` (e.g. input file, sizes), whose
+// values are written as JSON strings unless they parse as numbers.
+void WriteReportJson(const SolveResult& result, std::ostream& out,
+                     const std::vector<std::pair<std::string, std::string>>& context = {});
+
+// The one-line progress format shared by the solvers (no trailing newline).
+std::string FormatIteration(const IterationRecord& record);
+
+}  // namespace cairn

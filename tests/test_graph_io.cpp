@@ -1,0 +1,251 @@
+// Reading and writing g2o and TORO files: every tag, exact round trips, and
+// every kind of bad input answered with FILE:LINE.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "backend/chi2.h"
+#include "backend/graph_io.h"
+
+namespace cairn {
+namespace {
+
+PoseGraph Parse(const std::string& text, ReadOptions options = {}) {
+  std::istringstream in(text);
+  return ReadGraph(in, "test.g2o", options);
+}
+
+// Expects a ParseError whose message names `line` and contains `what`.
+void ExpectError(const std::string& text, size_t line, const std::string& what,
+                 ReadOptions options = {}) {
+  try {
+    Parse(text, options);
+    ADD_FAILURE() << "no error for:\n" << text;
+  } catch (const ParseError& e) {
+    EXPECT_EQ(e.line(), line) << e.what();
+    EXPECT_NE(std::string(e.what()).find("test.g2o:" + std::to_string(line) + ": "),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(e.message().find(what), std::string::npos) << e.what();
+  }
+}
+
+const char* kSE2 =
+    "VERTEX_SE2 0 0 0 0\n"
+    "VERTEX_SE2 1 1.5 0.25 0.1\n"
+    "VERTEX_SE2 2 2.5 0.5 3.0\n"
+    "FIX 0\n"
+    "EDGE_SE2 0 1 1.4 0.2 0.12 500 10 1 400 2 3000\n"
+    "EDGE_SE2 1 2 1.0 0.3 2.9 500 0 0 500 0 5000\n"
+    "EDGE_SE2 0 2 2.4 0.7 3.1 50 0 0 50 0 500\n"
+    "EDGE_PRIOR_SE2 1 1.5 0.25 0.1 100 0 0 100 0 100\n";
+
+const char* kSE3 =
+    "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n"
+    "VERTEX_SE3:QUAT 1 1 0.1 -0.2 0.01 0.02 0.03 0.99930\n"
+    "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 "
+    "100 1 0 0 0 0 100 0 0 0 0 100 0 0 0 400 0 0 400 0 400\n"
+    "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1\n"
+    "EDGE_SE3_PRIOR 1 0 1 0.1 -0.2 0 0 0 1 "
+    "10 0 0 0 0 0 10 0 0 0 0 10 0 0 0 40 0 0 40 0 40\n";
+
+TEST(ReadG2o, SE2Tags) {
+  const PoseGraph g = Parse(kSE2);
+  EXPECT_EQ(g.dimension(), 2);
+  ASSERT_EQ(g.vertices().size(), 3u);
+  EXPECT_TRUE(g.vertex(0).fixed);
+  EXPECT_FALSE(g.vertex(1).fixed);
+  EXPECT_DOUBLE_EQ(g.vertex(1).x[2], 0.1);
+  ASSERT_EQ(g.edges().size(), 4u);
+  EXPECT_EQ(g.CountEdges(EdgeKind::kOdometry), 2u);
+  EXPECT_EQ(g.CountEdges(EdgeKind::kLoopClosure), 1u);
+  EXPECT_EQ(g.CountEdges(EdgeKind::kPrior), 1u);
+  // Upper triangle row by row: (xx, xy, xt, yy, yt, tt).
+  const Matrix6d& info = g.edges()[0].information;
+  EXPECT_EQ(info(0, 1), 10);
+  EXPECT_EQ(info(1, 0), 10);
+  EXPECT_EQ(info(0, 2), 1);
+  EXPECT_EQ(info(1, 1), 400);
+  EXPECT_EQ(info(1, 2), 2);
+  EXPECT_EQ(info(2, 2), 3000);
+  EXPECT_EQ(g.edges()[3].from, 1);
+}
+
+TEST(ReadG2o, SE3TagsAndPrior) {
+  const PoseGraph g = Parse(kSE3);
+  EXPECT_EQ(g.dimension(), 3);
+  ASSERT_EQ(g.edges().size(), 2u);
+  EXPECT_TRUE(g.edges()[1].IsPrior());
+  EXPECT_EQ(g.edges()[0].information(0, 1), 1);
+  EXPECT_EQ(g.edges()[0].information(3, 3), 400);
+  // The slightly off-unit quaternion of vertex 1 was normalised.
+  const auto& x = g.vertex(1).x;
+  EXPECT_NEAR(x[3] * x[3] + x[4] * x[4] + x[5] * x[5] + x[6] * x[6], 1.0, 1e-15);
+}
+
+TEST(ReadG2o, RoundTripIsExact) {
+  for (const char* text : {kSE2, kSE3}) {
+    const PoseGraph a = Parse(text);
+    std::ostringstream first;
+    WriteG2o(a, first);
+    const PoseGraph b = Parse(first.str());
+    std::ostringstream second;
+    WriteG2o(b, second);
+    EXPECT_EQ(first.str(), second.str());
+    ASSERT_EQ(a.vertices().size(), b.vertices().size());
+    for (size_t i = 0; i < a.vertices().size(); ++i) {
+      EXPECT_EQ(a.vertices()[i].id, b.vertices()[i].id);
+      EXPECT_EQ(a.vertices()[i].fixed, b.vertices()[i].fixed);
+      EXPECT_EQ(0, std::memcmp(a.vertices()[i].x.data(), b.vertices()[i].x.data(),
+                               sizeof(PoseParams)));
+    }
+    ASSERT_EQ(a.edges().size(), b.edges().size());
+    for (size_t k = 0; k < a.edges().size(); ++k) {
+      EXPECT_EQ(a.edges()[k].kind, b.edges()[k].kind);
+      EXPECT_EQ(a.edges()[k].z, b.edges()[k].z);
+      EXPECT_EQ(a.edges()[k].information, b.edges()[k].information);
+    }
+    EXPECT_EQ(Chi2(a), Chi2(b));
+  }
+}
+
+TEST(ReadG2o, RoundTripKeepsAwkwardDoubles) {
+  PoseGraph g(2);
+  g.AddVertex(0, PoseParams{0.1 + 0.2, 1e-300, -3.141592653589793, 0, 0, 0, 0});
+  g.AddVertex(1, PoseParams{1.0 / 3.0, 123456789.123456789, 2.718281828459045, 0, 0, 0, 0});
+  Edge e;
+  e.from = 0;
+  e.to = 1;
+  e.z = {std::nextafter(1.0, 2.0), 0, 0, 0, 0, 0, 0};
+  e.information.topLeftCorner<3, 3>() << 1.0 / 7.0, 1e-17, 0, 1e-17, 2.0 / 3.0, 0, 0, 0, 1e5;
+  g.AddEdge(e);
+  std::ostringstream out;
+  WriteG2o(g, out);
+  const PoseGraph r = Parse(out.str());
+  EXPECT_EQ(r.vertex(0).x, g.vertex(0).x);
+  EXPECT_EQ(r.vertex(1).x, g.vertex(1).x);
+  EXPECT_EQ(r.edges()[0].z, g.edges()[0].z);
+  EXPECT_EQ(r.edges()[0].information, g.edges()[0].information);
+}
+
+TEST(ReadToro, TwoDimensionalInformationOrder) {
+  // TORO: (xx, xy, yy, tt, xt, yt).
+  const PoseGraph g = Parse(
+      "VERTEX2 0 0 0 0\nVERTEX2 1 1 0 0\n"
+      "EDGE2 0 1 1 0 0 11 1 22 33 2 3\n");
+  const Matrix6d& info = g.edges()[0].information;
+  EXPECT_EQ(info(0, 0), 11);
+  EXPECT_EQ(info(0, 1), 1);
+  EXPECT_EQ(info(1, 1), 22);
+  EXPECT_EQ(info(2, 2), 33);
+  EXPECT_EQ(info(0, 2), 2);
+  EXPECT_EQ(info(2, 0), 2);
+  EXPECT_EQ(info(1, 2), 3);
+}
+
+TEST(ReadToro, ThreeDimensional) {
+  const PoseGraph g = Parse(
+      "VERTEX3 0 0 0 0 0 0 0\nVERTEX3 1 1 0 0 0 0 1.5707963267948966\n"
+      "EDGE3 0 1 1 0 0 0 0 1.5707963267948966 "
+      "1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\n");
+  EXPECT_EQ(g.dimension(), 3);
+  const SE3 p = ToSE3(g.vertex(1).x);
+  EXPECT_NEAR(Eigen::AngleAxisd(p.rotation()).angle(), M_PI / 2, 1e-12);
+  // Rotation information scaled for g2o's half-angle error.
+  EXPECT_EQ(g.edges()[0].information(3, 3), 4);
+  EXPECT_EQ(g.edges()[0].information(0, 0), 1);
+  EXPECT_NEAR(Chi2(g), 0, 1e-20);
+}
+
+TEST(ReadG2o, EdgesOnlyGetVerticesFromSpanningTree) {
+  const PoseGraph g = Parse(
+      "EDGE_SE2 5 6 1 0 1.5707963267948966 1 0 0 1 0 1\n"
+      "EDGE_SE2 6 7 1 0 0 1 0 0 1 0 1\n");
+  ASSERT_EQ(g.vertices().size(), 3u);
+  EXPECT_EQ(g.vertex(5).x[0], 0);
+  EXPECT_NEAR(g.vertex(7).x[0], 1, 1e-15);
+  EXPECT_NEAR(g.vertex(7).x[1], 1, 1e-15);
+  EXPECT_NEAR(Chi2(g), 0, 1e-25);
+}
+
+TEST(ReadG2o, UnknownTagsWarnOnceOrFailUnderStrict) {
+  const std::string text = std::string(kSE2) + "ROBOTLASER1 1 2 3\nROBOTLASER1 4 5\nFOO\n";
+  std::ostringstream warnings;
+  ReadOptions options;
+  options.warnings = &warnings;
+  const PoseGraph g = Parse(text, options);
+  EXPECT_EQ(g.edges().size(), 4u);
+  const std::string w = warnings.str();
+  EXPECT_NE(w.find("test.g2o:9: warning: skipping unknown tag 'ROBOTLASER1'"), std::string::npos)
+      << w;
+  EXPECT_EQ(w.find("test.g2o:10"), std::string::npos) << w;
+  EXPECT_NE(w.find("'FOO'"), std::string::npos) << w;
+  options.strict = true;
+  ExpectError(text, 9, "unknown tag 'ROBOTLASER1'", options);
+}
+
+TEST(ReadG2o, CommentsAndBlankLines) {
+  const PoseGraph g = Parse("# a graph\n\nVERTEX_SE2 0 0 0 0  # origin\n  \n");
+  EXPECT_EQ(g.vertices().size(), 1u);
+}
+
+TEST(ReadG2oErrors, EveryKindOfBadInput) {
+  const std::string v01 = "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\n";
+  ExpectError("VERTEX_SE2 0 0 0\n", 1, "needs 4 fields, found 3");
+  ExpectError("VERTEX_SE2 0 0 0 0 9\n", 1, "takes 4 fields, found 5");
+  ExpectError(v01 + "EDGE_SE2 0 1 1 0 0 1 0 0 1 0\n", 3, "needs 11 fields");
+  ExpectError("VERTEX_SE2 0 abc 0 0\n", 1, "expected a number for x, found 'abc'");
+  ExpectError("VERTEX_SE2 0 1.5x 0 0\n", 1, "expected a number");
+  ExpectError("VERTEX_SE2 0 nan 0 0\n", 1, "NaN");
+  ExpectError("VERTEX_SE2 0 0 inf 0\n", 1, "out of range");
+  ExpectError("VERTEX_SE2 0 1e999 0 0\n", 1, "out of range");
+  ExpectError("VERTEX_SE2 -1 0 0 0\n", 1, "out of range");
+  ExpectError("VERTEX_SE2 99999999999 0 0 0\n", 1, "out of range");
+  ExpectError("VERTEX_SE2 1.5 0 0 0\n", 1, "expected a vertex id");
+  ExpectError(v01 + "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 -1\n", 3, "not positive definite");
+  ExpectError(v01 + "EDGE_SE2 0 1 1 0 0 1 5 0 1 0 1\n", 3, "not positive definite");
+  ExpectError(v01 + "EDGE_SE2 0 7 1 0 0 1 0 0 1 0 1\n", 3, "vertex 7, which does not exist");
+  ExpectError(v01 + "EDGE_SE2 1 1 1 0 0 1 0 0 1 0 1\n", 3, "to itself");
+  ExpectError(v01 + "VERTEX_SE2 1 0 0 0\n", 3, "duplicate vertex id 1");
+  ExpectError("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 0\n", 1, "zero quaternion");
+  ExpectError("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 2\n", 1, "far from unit length");
+  ExpectError(v01 + "VERTEX_SE3:QUAT 2 0 0 0 0 0 0 1\n", 3, "cannot be mixed");
+  ExpectError("", 1, "empty file");
+  ExpectError("# only a comment\n\n", 2, "empty file");
+  ExpectError(std::string("VERTEX_SE2 0 0 0 0\n\x7f" "ELF\x01\x02\x00\x00junk", 26), 2,
+              "binary data");
+  ExpectError(v01 + "FIX 9\n", 3, "FIX names vertex 9");
+  ExpectError("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n"
+              "EDGE_SE3_PRIOR 0 3 0 0 0 0 0 0 1 "
+              "1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\n",
+              2, "no PARAMS_SE3OFFSET");
+}
+
+TEST(ReadG2oErrors, MissingFileAndDirectory) {
+  EXPECT_THROW(ReadGraph("/nonexistent/graph.g2o"), std::runtime_error);
+  EXPECT_THROW(ReadGraph(std::filesystem::temp_directory_path().string()), std::runtime_error);
+}
+
+TEST(WriteG2o, AtomicWriteLeavesNoHalfFile) {
+  const auto dir = std::filesystem::temp_directory_path() / "cairn_atomic_test";
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "out.g2o").string();
+  std::filesystem::remove(path);
+  EXPECT_THROW(WriteFileAtomically(path,
+                                   [](std::ostream& out) {
+                                     out << "VERTEX_SE2 0 0 0 0\n";
+                                     throw std::runtime_error("interrupted");
+                                   }),
+               std::runtime_error);
+  EXPECT_FALSE(std::filesystem::exists(path));
+  EXPECT_TRUE(std::filesystem::is_empty(dir)) << "temporary file left behind";
+  WriteG2o(Parse(kSE2), path);
+  EXPECT_EQ(ReadGraph(path).edges().size(), 4u);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace cairn

@@ -1,0 +1,116 @@
+// The pose-graph model: validation, edge kinds, chi-squared, components.
+#include <gtest/gtest.h>
+
+#include "backend/chi2.h"
+#include "backend/initialization.h"
+#include "backend/pose_graph.h"
+
+namespace cairn {
+namespace {
+
+Edge Between2D(int64_t a, int64_t b, const SE2& z, double w = 1.0) {
+  Edge e;
+  e.kind = KindForBetween(a, b);
+  e.from = a;
+  e.to = b;
+  e.z = ToParams(z);
+  e.information = Matrix6d::Identity() * w;
+  return e;
+}
+
+TEST(PoseGraph, RefusesBadInput) {
+  PoseGraph g(2);
+  g.AddVertex(0, SE2());
+  g.AddVertex(1, SE2(1, 0, 0));
+  EXPECT_THROW(g.AddVertex(1, SE2()), std::invalid_argument);
+  EXPECT_THROW(g.AddVertex(2, SE3()), std::invalid_argument);
+  EXPECT_THROW(g.AddEdge(Between2D(0, 7, SE2())), std::invalid_argument);
+  EXPECT_THROW(g.AddEdge(Between2D(1, 1, SE2())), std::invalid_argument);
+  Edge bad = Between2D(0, 1, SE2());
+  bad.information(0, 1) = 2.0;  // not symmetric
+  EXPECT_THROW(g.AddEdge(bad), std::invalid_argument);
+  bad.information(1, 0) = 2.0;  // symmetric, indefinite
+  EXPECT_THROW(g.AddEdge(bad), std::invalid_argument);
+  EXPECT_NO_THROW(g.AddEdge(Between2D(0, 1, SE2(1, 0, 0))));
+  EXPECT_EQ(g.edges().size(), 1u);
+}
+
+TEST(PoseGraph, EdgeKindsFromIds) {
+  EXPECT_EQ(KindForBetween(3, 4), EdgeKind::kOdometry);
+  EXPECT_EQ(KindForBetween(4, 3), EdgeKind::kOdometry);
+  EXPECT_EQ(KindForBetween(3, 9), EdgeKind::kLoopClosure);
+}
+
+TEST(PoseGraph, IsSymmetricPositiveDefinite) {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+  EXPECT_TRUE(IsSymmetricPositiveDefinite(m));
+  m(2, 2) = 0;
+  EXPECT_FALSE(IsSymmetricPositiveDefinite(m));
+  m(2, 2) = std::nan("");
+  EXPECT_FALSE(IsSymmetricPositiveDefinite(m));
+}
+
+TEST(Chi2, MatchesHandComputedError2D) {
+  PoseGraph g(2);
+  g.AddVertex(0, SE2(0, 0, 0));
+  g.AddVertex(1, SE2(1, 0, 0.1));
+  Edge e = Between2D(0, 1, SE2(1, 0, 0));
+  // Non-diagonal information: e^T Omega e with e = (0, 0, 0.1).
+  e.information.topLeftCorner<3, 3>() << 2, 0.5, 0.1, 0.5, 3, 0.2, 0.1, 0.2, 4;
+  g.AddEdge(e);
+  EXPECT_NEAR(Chi2(g), 4 * 0.01, 1e-15);
+  // Moving pose 1 sideways by 0.2 in pose 0's frame adds y error.
+  g.vertex(1).x = ToParams(SE2(1, 0.2, 0.1));
+  const Eigen::Vector3d err(0, 0.2, 0.1);
+  EXPECT_NEAR(Chi2(g), err.dot(e.information.topLeftCorner<3, 3>() * err), 1e-14);
+}
+
+TEST(Chi2, MatchesHandComputedError3D) {
+  PoseGraph g(3);
+  g.AddVertex(0, SE3());
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()));
+  g.AddVertex(1, SE3(q, Eigen::Vector3d(1, 0, 0)));
+  Edge e;
+  e.kind = EdgeKind::kOdometry;
+  e.from = 0;
+  e.to = 1;
+  e.z = ToParams(SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 0)));
+  g.AddEdge(e);
+  // Rotation error is the quaternion's vector part: sin(0.1) about z.
+  EXPECT_NEAR(Chi2(g), std::pow(std::sin(0.1), 2), 1e-15);
+}
+
+TEST(Components, CountsSeparateChains) {
+  PoseGraph g(2);
+  for (int i = 0; i < 6; ++i) g.AddVertex(i, SE2());
+  g.AddEdge(Between2D(0, 1, SE2(1, 0, 0)));
+  g.AddEdge(Between2D(1, 2, SE2(1, 0, 0)));
+  g.AddEdge(Between2D(3, 4, SE2(1, 0, 0)));
+  const auto c = ConnectedComponents(g);
+  ASSERT_EQ(c.size(), 3u);
+  EXPECT_EQ(c[0], (std::vector<int64_t>{0, 1, 2}));
+  EXPECT_EQ(c[1], (std::vector<int64_t>{3, 4}));
+  EXPECT_EQ(c[2], (std::vector<int64_t>{5}));
+}
+
+TEST(SpanningTree, ChainsMeasurementsAlongMostCertainEdges) {
+  PoseGraph g(2);
+  for (int i = 0; i < 4; ++i) g.AddVertex(i, SE2());
+  g.AddEdge(Between2D(0, 1, SE2(1, 0, M_PI / 2), 100));
+  g.AddEdge(Between2D(1, 2, SE2(1, 0, M_PI / 2), 100));
+  // A weak, inconsistent edge 0-2 must not be followed.
+  g.AddEdge(Between2D(0, 2, SE2(5, 5, 0), 0.01));
+  // An edge stated backwards (3 -> 2) is inverted on the way.
+  g.AddEdge(Between2D(3, 2, SE2(0, -1, 0), 100));
+  InitializeBySpanningTree(g);
+  const SE2 p2 = ToSE2(g.vertex(2).x), p3 = ToSE2(g.vertex(3).x);
+  EXPECT_NEAR(p2.x(), 1, 1e-12);
+  EXPECT_NEAR(p2.y(), 1, 1e-12);
+  EXPECT_NEAR(p2.theta(), M_PI, 1e-12);
+  // x3 = x2 * z^-1 with z = (0, -1, 0): one metre to x2's left, i.e. (1, 0).
+  EXPECT_NEAR(p3.x(), 1, 1e-12);
+  EXPECT_NEAR(p3.y(), 0, 1e-12);
+}
+
+}  // namespace
+}  // namespace cairn

@@ -1,0 +1,139 @@
+// cairn optimize: read a pose graph, optimise it, write it as g2o.
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#include "backend/ceres_solver.h"
+#include "backend/chi2.h"
+#include "backend/graph_io.h"
+#include "backend/solve_result.h"
+#include "backend/svg_plot.h"
+#include "tools/args.h"
+#include "tools/command.h"
+
+namespace cairn::tools {
+namespace {
+
+std::string Number(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+int RunOptimize(int argc, char** argv) {
+  std::string in, out, solver = "ceres", robust = "none", method = "lm", sparse = "auto";
+  std::string report, plot;
+  bool quiet = false, strict = false;
+  CeresOptions o;
+  ArgParser args(
+      "optimize IN -o OUT.g2o [--solver ceres] [--robust huber:D|cauchy:D] [options]",
+      "Optimises a g2o or TORO pose graph from the estimate in the file and writes the\n"
+      "result as g2o (to a temporary file, renamed when complete). Vertices marked\n"
+      "FIX stay put; when none is and no prior anchors the graph, the lowest-id\n"
+      "vertex is held. Progress goes to stderr, one line per iteration (chi2 is\n"
+      "g2o's: twice Ceres's cost, robustified when --robust is set).");
+  args.Positional("IN", &in, "a .g2o or TORO .graph file");
+  args.Option("output", &out, "OUT.g2o", "where to write the optimised graph (g2o)");
+  args.Alias("-o", "output");
+  args.Option("solver", &solver, "NAME", "ceres (Ceres's trust-region solver)");
+  args.Option("method", &method, "lm|dogleg",
+              "ceres: Levenberg-Marquardt or Powell's dogleg trust region");
+  args.Option("sparse", &sparse, "LIB",
+              "ceres: sparse Cholesky library: auto (per graph, see docs/benchmarks.md), "
+              "suitesparse (CHOLMOD), eigen (simplicial LDLT), cxsparse");
+  args.Option("max-iterations", &o.max_iterations, "N", "stop after N iterations");
+  args.Option("robust", &robust, "KIND:DELTA",
+              "robust loss on loop closures: none, huber:DELTA or cauchy:DELTA (DELTA on the "
+              "whitened error, as g2o's kernels)");
+  args.Option("threads", &o.threads, "N", "threads for linearisation (0: one per core)");
+  args.Option("function-tolerance", &o.function_tolerance, "TOL",
+              "stop when one step lowers chi2 by less than this fraction");
+  args.Option("gradient-tolerance", &o.gradient_tolerance, "TOL",
+              "stop when the largest gradient component is below this");
+  args.Option("parameter-tolerance", &o.parameter_tolerance, "TOL",
+              "stop when the step is this small relative to the estimate");
+  args.Option("initial-radius", &o.initial_trust_region_radius, "R",
+              "ceres: first trust-region radius (large: start close to Gauss-Newton)");
+  args.Option("report", &report, "FILE.json",
+              "write a JSON report: initial_chi2, final_chi2, iterations, time_s, "
+              "termination, timings and the per-iteration trace");
+  args.Option("plot", &plot, "FILE.svg",
+              "draw the trajectory before and after, loop closures in red (3D: x-y view)");
+  args.Flag("quiet", &quiet, "no progress lines and no summary");
+  args.Flag("strict", &strict, "refuse tags cairn does not know instead of skipping them");
+  int code = 0;
+  if (!args.Parse(argc, argv, &code)) return code;
+  if (out.empty()) {
+    PrintError("optimize needs an output file (-o OUT.g2o)");
+    return 2;
+  }
+  if (solver != "ceres") {
+    PrintError(solver == "gn" ? "--solver gn is not in this build yet; use --solver ceres"
+                              : "unknown solver '" + solver + "' (expected ceres)");
+    return 2;
+  }
+  try {
+    o.loop_closure_loss = ParseRobustLoss(robust);
+    o.method = ParseCeresMethod(method);
+    o.sparse_library = ParseSparseLibrary(sparse);
+  } catch (const std::invalid_argument& e) {
+    PrintError(e.what());
+    return 2;
+  }
+  if (o.max_iterations < 0 || o.threads < 0) {
+    PrintError("--max-iterations and --threads must not be negative");
+    return 2;
+  }
+  o.verbose = !quiet;
+
+  ReadOptions read_options;
+  read_options.strict = strict;
+  read_options.warnings = &std::cerr;
+  const auto read_start = std::chrono::steady_clock::now();
+  PoseGraph graph = ReadGraph(in, read_options);
+  const double read_time =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
+  // Only copied when asked for: the "before" panel of the plot.
+  const PoseGraph before = plot.empty() ? PoseGraph(graph.dimension()) : graph;
+
+  const SolveResult result = SolveWithCeres(graph, o);
+  WriteFileAtomically(out, [&](std::ostream& os) { WriteG2o(graph, os); });
+
+  if (!report.empty()) {
+    const std::vector<std::pair<std::string, std::string>> context = {
+        {"input", in},
+        {"output", out},
+        {"dimension", std::to_string(graph.dimension())},
+        {"vertices", std::to_string(graph.vertices().size())},
+        {"edges", std::to_string(graph.edges().size())},
+        {"loop_closures", std::to_string(graph.CountEdges(EdgeKind::kLoopClosure))},
+        {"robust", ToString(o.loop_closure_loss)},
+        {"method", method},
+        {"sparse", sparse},
+        {"read_time_s", Number(read_time)},
+    };
+    WriteFileAtomically(report, [&](std::ostream& os) { WriteReportJson(result, os, context); });
+  }
+  if (!plot.empty()) {
+    PlotPanel a{&before, "before: chi2 " + Number(result.initial_chi2), "#888888"};
+    PlotPanel b{&graph, "after: chi2 " + Number(result.final_chi2)};
+    WriteFileAtomically(plot, [&](std::ostream& os) { WriteSvgPlot(os, {a, b}, in); });
+  }
+  if (!quiet) {
+    std::fprintf(stderr, "%s: chi2 %.10g -> %.10g, %d iterations, %.3f s (%s)\n", in.c_str(),
+                 result.initial_chi2, result.final_chi2, result.iterations, result.time_s,
+                 result.termination.c_str());
+  }
+  if (!result.usable) {
+    PrintError("the solver failed: " + result.message);
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+CAIRN_COMMAND("optimize", "optimise a pose graph (Ceres) and write it as g2o", RunOptimize);
+
+}  // namespace cairn::tools

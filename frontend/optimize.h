@@ -1,6 +1,6 @@
-// Pose-graph optimisation for the front-end, kept behind one call so that
-// it can move onto the shared back-end (backend/ceres_solver.h) once that
-// lands. Loop closures get a robust loss; odometry edges do not.
+// Pose-graph optimisation for the front-end, behind one call on the shared
+// back-end (backend/ceres_solver.h, backend/graph_gauss_newton.h). Loop
+// closures get a robust loss; odometry edges do not.
 #pragma once
 
 #include <string>
@@ -18,7 +18,7 @@ struct OptimizeOptions {
 
 struct OptimizeSummary {
   int iterations = 0;
-  double initial_cost = 0, final_cost = 0;  // 0.5 * sum of robustified chi2
+  double initial_chi2 = 0, final_chi2 = 0;  // g2o's, without the robust loss
 };
 
 // Optimises the 2D graph in place. With no fixed vertex, the first one is

@@ -90,7 +90,8 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
     const size_t first = K > static_cast<size_t>(o.local_map_keyframes) ? K - o.local_map_keyframes : 0;
     for (size_t k = first; k < K; ++k) world.Append(res.keyframes[k].cloud, kf_pose(k));
     const auto t0 = Clock::now();
-    local = std::make_unique<MapPair>(world);
+    // Overlapping keyframes repeat points; one per 2.5 cm is plenty.
+    local = std::make_unique<MapPair>(Downsample(world, 0.025));
     res.stats.seconds_local_map += Since(t0);
   };
 

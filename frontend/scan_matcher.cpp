@@ -98,38 +98,60 @@ MatchMap::MatchMap(const PointCloud& world, double resolution, double radius, do
   origin_ = lo - Eigen::Vector2d(margin, margin);
   w_ = static_cast<int>(std::ceil((hi.x() - lo.x() + 2 * margin) / res_)) + 1;
   h_ = static_cast<int>(std::ceil((hi.y() - lo.y() + 2 * margin) / res_)) + 1;
-  const size_t cells = static_cast<size_t>(w_) * h_;
-  std::vector<float> best(cells, std::numeric_limits<float>::infinity());
-  nearest_.assign(cells, -1);
+  bw_ = (w_ + kBlockSide - 1) / kBlockSide;
+  const int bh = (h_ + kBlockSide - 1) / kBlockSide;
+  dir_.assign(static_cast<size_t>(bw_) * bh, -1);
+  int blocks = 0;
+  auto slot = [&](int x, int y) {
+    int& b = dir_[static_cast<size_t>(y >> kBlockBits) * bw_ + (x >> kBlockBits)];
+    if (b < 0) {
+      b = blocks++;
+      like_.resize(like_.size() + kBlockSide * kBlockSide, 0.f);
+      nearest_.resize(nearest_.size() + kBlockSide * kBlockSide, -1);
+    }
+    return Slot(b, x, y);
+  };
+  // The likelihood falls with distance, so the highest one seen in a cell
+  // also names its nearest point: one pass, no per-cell distance array.
   const int rc = static_cast<int>(std::ceil(radius / res_));
   const double r2 = radius * radius;
+  const double inv = 1.0 / (2 * sigma * sigma);
+  // The Gaussian separates: exp(-(dx^2 + dy^2)) = exp(-dx^2) exp(-dy^2), so
+  // a point costs 2 (2 rc + 1) exponentials rather than one per cell.
+  std::vector<double> ex(2 * rc + 1), ey(2 * rc + 1), dx2(2 * rc + 1);
   for (size_t k = 0; k < world.size(); ++k) {
     const Eigen::Vector2d c = (world.points[k] - origin_) / res_;
     const int cx = static_cast<int>(std::floor(c.x())), cy = static_cast<int>(std::floor(c.y()));
+    for (int o = -rc; o <= rc; ++o) {
+      const double dx = (cx + o + 0.5 - c.x()) * res_, dy = (cy + o + 0.5 - c.y()) * res_;
+      dx2[o + rc] = dx * dx;
+      ex[o + rc] = std::exp(-dx * dx * inv);
+      ey[o + rc] = std::exp(-dy * dy * inv);
+    }
     for (int y = std::max(0, cy - rc); y <= std::min(h_ - 1, cy + rc); ++y) {
       const double dy = (y + 0.5 - c.y()) * res_;
       for (int x = std::max(0, cx - rc); x <= std::min(w_ - 1, cx + rc); ++x) {
-        const double dx = (x + 0.5 - c.x()) * res_;
-        const double d2 = dx * dx + dy * dy;
-        const size_t i = static_cast<size_t>(y) * w_ + x;
-        if (d2 < r2 && d2 < best[i]) {
-          best[i] = static_cast<float>(d2);
+        const double d2 = dx2[x - cx + rc] + dy * dy;
+        if (d2 >= r2) continue;
+        const size_t i = slot(x, y);
+        // Strictly above zero even far out, so that any point in range wins
+        // over an empty cell.
+        const float l = std::max(static_cast<float>(ex[x - cx + rc] * ey[y - cy + rc]), 1e-30f);
+        if (l > like_[i]) {
+          like_[i] = l;
           nearest_[i] = static_cast<int>(k);
         }
       }
     }
   }
-  like_.assign(cells, 0.f);
-  const double inv = 1.0 / (2 * sigma * sigma);
-  for (size_t i = 0; i < cells; ++i)
-    if (nearest_[i] >= 0) like_[i] = static_cast<float>(std::exp(-best[i] * inv));
 }
 
 int MatchMap::Nearest(const Eigen::Vector2d& p) const {
   const int cx = static_cast<int>(std::floor((p.x() - origin_.x()) / res_));
   const int cy = static_cast<int>(std::floor((p.y() - origin_.y()) / res_));
   if (cx < 0 || cy < 0 || cx >= w_ || cy >= h_) return -1;
-  return nearest_[static_cast<size_t>(cy) * w_ + cx];
+  const int b = dir_[static_cast<size_t>(cy >> kBlockBits) * bw_ + (cx >> kBlockBits)];
+  return b < 0 ? -1 : nearest_[Slot(b, cx, cy)];
 }
 
 namespace {

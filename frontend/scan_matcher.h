@@ -40,7 +40,8 @@ class MatchMap {
   // Likelihood in [0, 1] at a continuous cell coordinate.
   float LikelihoodAtCell(int cx, int cy) const {
     if (cx < 0 || cy < 0 || cx >= w_ || cy >= h_) return 0.f;
-    return like_[static_cast<size_t>(cy) * w_ + cx];
+    const int b = dir_[static_cast<size_t>(cy >> kBlockBits) * bw_ + (cx >> kBlockBits)];
+    return b < 0 ? 0.f : like_[Slot(b, cx, cy)];
   }
   // Index of the nearest reference point to p, or -1 beyond the radius.
   int Nearest(const Eigen::Vector2d& p) const;
@@ -48,10 +49,19 @@ class MatchMap {
   Eigen::Vector2d origin() const { return origin_; }
 
  private:
+  // Cells live in 16 x 16 blocks allocated where points are: a local map of
+  // long-range scans spans a large box but touches little of it.
+  static constexpr int kBlockBits = 4, kBlockSide = 1 << kBlockBits;
+  static size_t Slot(int block, int cx, int cy) {
+    return static_cast<size_t>(block) * kBlockSide * kBlockSide +
+           ((cy & (kBlockSide - 1)) << kBlockBits) + (cx & (kBlockSide - 1));
+  }
+
   PointCloud cloud_;
   double res_;
   Eigen::Vector2d origin_;
-  int w_ = 0, h_ = 0;
+  int w_ = 0, h_ = 0, bw_ = 0;
+  std::vector<int> dir_;  // block index per block position, -1 if empty
   std::vector<float> like_;
   std::vector<int> nearest_;
 };

@@ -190,6 +190,26 @@ TEST(CarmenLog, RecoversRawOdometryAndReferencePoses) {
   EXPECT_NEAR(log.scans[0].angle_increment, M_PI / 180, 1e-12);
 }
 
+TEST(CarmenLog, ReadsRobotLaserWithItsOwnGeometryAndOffset) {
+  // ROBOTLASER1 type start fov res maxrange accuracy remission n r.. nrem
+  // laser(x y th) robot(x y th) tv rv fsd ssd turn timestamp host logger
+  const std::string path = WriteTemp("cairn_robotlaser.log",
+      "ROBOTLASER1 0 -1.5 3.0 0.75 50 0.01 0 5 1 2 3 4 5 0 1.2 2 0.1 1 2 0.1 0 0 0 0 0 7.25 h 7.25\n");
+  const CarmenLog log = ReadCarmenLog(path);
+  ASSERT_EQ(log.scans.size(), 1u);
+  const LaserScan& s = log.scans[0];
+  EXPECT_EQ(s.ranges.size(), 5u);
+  EXPECT_DOUBLE_EQ(s.angle_min, -1.5);
+  EXPECT_DOUBLE_EQ(s.angle_increment, 0.75);
+  EXPECT_NEAR(s.reference.x(), 1, 1e-12);
+  // The laser's pose in the robot's frame (20 cm apart in the world).
+  const SE2 offset = SE2(1, 2, 0.1).Between(SE2(1.2, 2, 0.1));
+  EXPECT_NEAR(s.laser_offset.x(), offset.x(), 1e-12);
+  EXPECT_NEAR(s.laser_offset.y(), offset.y(), 1e-12);
+  EXPECT_NEAR(s.laser_offset.theta(), 0, 1e-12);
+  EXPECT_DOUBLE_EQ(s.timestamp, 7.25);
+}
+
 TEST(CarmenLog, MalformedLineNamesFileAndLine) {
   const std::string path = WriteTemp("cairn_bad.log", "ODOM 0 0 0 0 0 0 1 h 1\nFLASER 3 1.0 x 2.0 0 0 0 0 0 0 1 h 1\n");
   try {

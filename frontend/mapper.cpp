@@ -131,7 +131,7 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
     const SE2 prev = current;
     // Wheel odometry often has a scale error of a percent or two, which a
     // corridor cannot reveal; learn it where the walls do constrain travel.
-    const double scale = odo_den > 1.0 ? std::clamp(odo_num / odo_den, 0.9, 1.1) : 1.0;
+    const double scale = odo_den > 1.0 ? std::clamp(odo_num / odo_den, 0.8, 1.25) : 1.0;
     const SE2& inc = scan.odometry_increment;
     const SE2 predicted = current * SE2(scale * inc.x(), scale * inc.y(), inc.theta());
     Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
@@ -251,6 +251,7 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
     rebuild_local();
   }
   if (res.keyframes.size() > 1) optimize(std::max(o.optimize.max_iterations, 50));
+  res.stats.odometry_scale = odo_den > 1.0 ? std::clamp(odo_num / odo_den, 0.8, 1.25) : 1.0;
   for (size_t i = 0; i < n; ++i) res.scan_poses[i] = kf_pose(scan_kf[i]) * scan_rel[i];
   return res;
 }

@@ -58,6 +58,7 @@ struct KeyFrame {
 
 struct MapperStats {
   size_t loop_candidates = 0, loop_accepted = 0, optimizations = 0, tracking_failures = 0;
+  double odometry_scale = 1;  // the factor learned for the odometry's translation
   double seconds_matching = 0, seconds_local_map = 0, seconds_loops = 0, seconds_optimizing = 0;
 };
 

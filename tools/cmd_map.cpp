@@ -114,7 +114,7 @@ int RunMap(int argc, char** argv) {
             << res.graph.CountEdges(EdgeKind::kOdometry) << " odometry edges, " << st.loop_accepted
             << " loop closures accepted of " << st.loop_candidates << " candidates, "
             << st.optimizations << " optimisations (" << solver << "), " << st.tracking_failures
-            << " scans fell back to odometry\n";
+            << " scans fell back to odometry; odometry scale learned " << st.odometry_scale << "\n";
   std::cerr << std::fixed << std::setprecision(2) << "time: read " << t_read << " s, matching "
             << st.seconds_matching << " s (+ local maps " << st.seconds_local_map << " s), loop closure " << st.seconds_loops << " s, optimisation "
             << st.seconds_optimizing << " s (graph total " << t_graph << " s), mapping " << t_grid
@@ -126,8 +126,14 @@ int RunMap(int argc, char** argv) {
     ref.Add(log.scans[i].timestamp, log.scans[i].reference, static_cast<long>(i));
     dr.Add(log.scans[i].timestamp, res.dead_reckoning[i], static_cast<long>(i));
   }
+  // A raw log's laser lines carry the odometry itself; only a corrected log's
+  // poses move otherwise than the odometry, and only those are a reference.
   bool has_reference = false;
-  for (const auto& s : log.scans) has_reference |= s.reference.translation().norm() > 0 || s.reference.theta() != 0;
+  for (size_t i = 1; i < log.scans.size() && !has_reference; ++i) {
+    const SE2 d = log.scans[i - 1].reference.Between(log.scans[i].reference)
+                      .Between(log.scans[i].odometry_increment);
+    has_reference = d.translation().norm() > 1e-6 || std::abs(d.theta()) > 1e-6;
+  }
   if (has_reference) {
     std::cerr << "against the log's reference poses:\n";
     PrintErrors("dead reckoning", frontend::EvaluateTrajectory(dr, ref));

@@ -241,6 +241,16 @@ TEST(Trajectory, RigidCopyHasNoErrorAndNoiseIsMeasured) {
   EXPECT_GT(e.rpe_trans_rmse, 0.05);
 }
 
+TEST(Trajectory, RepeatedStampsPairOnlyWhenUnambiguous) {
+  Trajectory ref, est;
+  for (int i = 0; i < 6; ++i) ref.Add(i < 3 ? 100.0 : 200.0, SE2(i, 0, 0));
+  // All of the first group, two of the three of the second.
+  for (int i : {0, 1, 2, 3, 5}) est.Add(i < 3 ? 100.0 : 200.0, SE2(i, 0, 0));
+  const auto pairs = Associate(est, ref);
+  ASSERT_EQ(pairs.size(), 3u);
+  for (size_t k = 0; k < 3; ++k) EXPECT_EQ(pairs[k], std::make_pair(k, k));
+}
+
 // A square loop with a biased odometry and one true loop closure, plus one
 // false closure the robust loss must shrug off.
 PoseGraph SquareLoop() {

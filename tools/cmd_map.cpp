@@ -32,7 +32,7 @@ void PrintErrors(const char* what, const frontend::TrajectoryErrors& e) {
 }
 
 int RunMap(int argc, char** argv) {
-  std::string log_path, prefix, graph_path, solver = "ceres";
+  std::string log_path, prefix, graph_path, reference_map, solver = "ceres";
   double resolution = 0.05, max_range = 0, kf_dist = 0.5, kf_angle_deg = 25;
   bool quiet = false;
   ArgParser args("map LOG -o PREFIX [options]",
@@ -54,6 +54,8 @@ int RunMap(int argc, char** argv) {
   args.Option("max-range", &max_range, "M", "readings at or above this mean no return (0: the log's largest)");
   args.Option("keyframe-distance", &kf_dist, "M", "metres travelled between keyframes");
   args.Option("keyframe-angle", &kf_angle_deg, "DEG", "degrees turned between keyframes");
+  args.Option("reference-map", &reference_map, "FILE.png",
+              "also draw the grid from the log's own poses, for comparison (never used by the front-end)");
   args.Flag("quiet", &quiet, "do not report loop closures as they are accepted");
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
@@ -89,6 +91,12 @@ int RunMap(int argc, char** argv) {
   go.resolution = resolution;
   const frontend::OccupancyGrid grid = frontend::BuildOccupancyGrid(log, res.scan_poses, res.max_range, go);
   const double t_grid = Since(t);
+  if (!reference_map.empty()) {
+    std::vector<SE2> ref_poses;
+    for (const auto& s : log.scans) ref_poses.push_back(s.reference);
+    const frontend::OccupancyGrid ref_grid = frontend::BuildOccupancyGrid(log, ref_poses, res.max_range, go);
+    WriteFileAtomically(reference_map, [&](std::ostream& o) { frontend::WritePng(ref_grid.ToGray(), o); });
+  }
 
   t = Clock::now();
   WriteFileAtomically(prefix + ".pgm", [&](std::ostream& o) { frontend::WritePgm(grid.ToTrinary(), o); });

@@ -15,7 +15,7 @@
 namespace cairn::frontend {
 namespace {
 
-// Splits on blanks without copying more than needed.
+// Fields are separated by any run of blanks.
 std::vector<std::string> Tokens(const std::string& line) {
   std::vector<std::string> out;
   std::istringstream is(line);

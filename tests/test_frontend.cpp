@@ -223,6 +223,28 @@ TEST(CarmenLog, MalformedLineNamesFileAndLine) {
   EXPECT_THROW(ReadCarmenLog(truncated), ParseError);
 }
 
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(MapTool, MalformedLogFailsWithFileLineAndWritesNothing) {
+  const auto dir = std::filesystem::temp_directory_path() / "cairn_map_bad";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string log = (dir / "bad.log").string();
+  std::ofstream(log) << "ODOM 0 0 0 0 0 0 1 h 1\nFLASER 3 1.0 x 2.0 0 0 0 0 0 0 1 h 1\n";
+  const std::string cmd = std::string(CAIRN_TOOL) + " map " + log + " -o " + (dir / "out").string() +
+                          " 2> " + (dir / "err").string();
+  EXPECT_NE(std::system(cmd.c_str()), 0);
+  EXPECT_NE(ReadAll((dir / "err").string()).find(log + ":2: "), std::string::npos);
+  size_t files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) files += e.path().filename() != "err";
+  EXPECT_EQ(files, 1u);  // only the log itself
+}
+
 TEST(Trajectory, RigidCopyHasNoErrorAndNoiseIsMeasured) {
   Trajectory ref, est, noisy;
   const SE2 offset(5, -3, 1.0);

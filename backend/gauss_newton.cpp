@@ -486,7 +486,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
     // Pure Gauss-Newton unless the last iteration needed damping; then start
     // from a tenth of the damping that worked, back to none once it is small.
     double lambda = resume_lambda, solve_s = 0, new_chi2 = chi2, step_norm = 0;
-    bool accepted = false;
+    bool accepted = false, at_rounding = false;
     for (;;) {
       const auto ts = std::chrono::steady_clock::now();
       bool ok = SolveStep(lambda, &step_norm);
@@ -503,6 +503,12 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
           break;
         }
         RestoreEstimate();
+        // A rise within rounding of chi2 means the estimate is already at
+        // the minimum: damping would only repeat the same factorisation.
+        if (std::isfinite(new_chi2) && new_chi2 - chi2 <= 1e-12 * chi2) {
+          at_rounding = true;
+          break;
+        }
       }
       const double next = lambda == 0 ? options.damping : lambda * 10;
       if (options.verbose)
@@ -515,6 +521,11 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
     }
     result.iterations = iter;
     resume_lambda = lambda / 10 < options.damping ? 0.0 : lambda / 10;
+    if (at_rounding) {
+      record(iter, step_norm, false, solve_s);
+      return finish("convergence",
+                    "converged: the next step changes chi-squared only within rounding", true);
+    }
     if (!accepted) {
       record(iter, step_norm, false, solve_s);
       return finish("convergence",

@@ -103,8 +103,9 @@ int RunCompare(int argc, char** argv) {
               "gn: first damping tried when a Gauss-Newton step raises chi2");
   args.Option("sparse", &sparse, "LIB", "ceres: auto, suitesparse, eigen or cxsparse");
   args.Option("init", &init, "METHOD",
-              "initial estimate for both: file (the file's vertices) or spanning-tree "
-              "(measurements chained along the most certain edges)");
+              "initial estimate for both: file (the file's vertices), odometry (chained "
+              "odometry), spanning-tree (chained along the most certain edges) or chordal "
+              "(chordal relaxation of the rotations, then linear translations)");
   args.Flag("quiet", &quiet, "no per-iteration progress lines");
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
@@ -120,13 +121,12 @@ int RunCompare(int argc, char** argv) {
 
   ReadOptions ro;
   ro.warnings = &std::cerr;
+  const InitMethod init_method = ParseInitMethod(init);
   PoseGraph input = ReadGraph(path, ro);
-  if (init == "spanning-tree") {
-    InitializeBySpanningTree(input);
-  } else if (init != "file") {
-    PrintError("unknown --init '" + init + "' (expected file or spanning-tree)");
-    return 2;
-  }
+  const InitReport init_report = Initialize(input, init_method);
+  if (!quiet)
+    std::fprintf(stderr, "initial estimate: %s, %.4f s, chi2 %.10g\n", ToString(init_method),
+                 init_report.time_s, init_report.chi2);
   PoseGraph ceres_graph = input, gn_graph = input;
   if (!quiet) std::fprintf(stderr, "-- ceres --\n");
   const SolveResult c = SolveWithCeres(ceres_graph, co);

@@ -483,10 +483,9 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
     for (double v : w.x_saved) x_norm += v * v;
     x_norm = std::sqrt(x_norm);
 
-    // Pure Gauss-Newton unless the last iteration needed damping; then start
-    // from a tenth of the damping that worked, back to none once it is small.
-    double lambda = resume_lambda, solve_s = 0, new_chi2 = chi2, step_norm = 0;
-    bool accepted = false;
+    // Pure Gauss-Newton until a step fails to lower chi2; damped from then on.
+    double lambda = resume_lambda, nu = 2, solve_s = 0, new_chi2 = chi2, step_norm = 0;
+    bool accepted = false, at_rounding = false;
     for (;;) {
       const auto ts = std::chrono::steady_clock::now();
       bool ok = SolveStep(lambda, &step_norm);
@@ -503,8 +502,17 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
           break;
         }
         RestoreEstimate();
+        // A rise within rounding of chi2 means the estimate is already at
+        // the minimum: damping would only repeat the same factorisation.
+        if (std::isfinite(new_chi2) && new_chi2 - chi2 <= 1e-12 * chi2) {
+          at_rounding = true;
+          break;
+        }
       }
-      const double next = lambda == 0 ? options.damping : lambda * 10;
+      // Levenberg-Marquardt's schedule once Gauss-Newton has failed:
+      // doubling growth on each refusal, as Ceres's trust region shrinks.
+      const double next = lambda == 0 ? options.damping : lambda * nu;
+      nu *= 2;
       if (options.verbose)
         std::fprintf(stderr, "         %s; trying a damped step (lambda %.1e)\n",
                      !ok ? "normal equations not positive definite"
@@ -514,7 +522,15 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
       if (lambda > 1e12) break;
     }
     result.iterations = iter;
-    resume_lambda = lambda / 10 < options.damping ? 0.0 : lambda / 10;
+    // After a success the damping relaxes by a third, never back to zero:
+    // a problem that once needed damping (a curved, flat valley) tends to
+    // again, and restarting from pure Gauss-Newton would waste a solve.
+    resume_lambda = lambda == 0 ? 0.0 : std::max(lambda / 3, 1e-12);
+    if (at_rounding) {
+      record(iter, step_norm, false, solve_s);
+      return finish("convergence",
+                    "converged: the next step changes chi-squared only within rounding", true);
+    }
     if (!accepted) {
       record(iter, step_norm, false, solve_s);
       return finish("convergence",

@@ -24,7 +24,7 @@ std::string Number(double v) {
 int RunOptimize(int argc, char** argv) {
   std::string in, out, solver = "ceres", robust = "none", method = "lm", sparse = "auto";
   std::string report, plot;
-  bool quiet = false, strict = false;
+  bool quiet = false, strict = false, no_jacobi = false;
   CeresOptions o;
   ArgParser args(
       "optimize IN -o OUT.g2o [--solver ceres] [--robust huber:D|cauchy:D] [options]",
@@ -55,6 +55,12 @@ int RunOptimize(int argc, char** argv) {
               "stop when the step is this small relative to the estimate");
   args.Option("initial-radius", &o.initial_trust_region_radius, "R",
               "ceres: first trust-region radius (large: start close to Gauss-Newton)");
+  args.Option("min-lm-diagonal", &o.min_lm_diagonal, "D",
+              "ceres: lower bound on Levenberg-Marquardt's diagonal damping");
+  args.Flag("postordering", &o.use_postordering,
+            "ceres: let the sparse Cholesky order the normal matrix itself (AMD with "
+            "postordering) instead of pre-permuting the Jacobian");
+  args.Flag("no-jacobi-scaling", &no_jacobi, "ceres: do not scale columns of the Jacobian");
   args.Option("report", &report, "FILE.json",
               "write a JSON report: initial_chi2, final_chi2, iterations, time_s, "
               "termination, timings and the per-iteration trace");
@@ -86,6 +92,7 @@ int RunOptimize(int argc, char** argv) {
     return 2;
   }
   o.verbose = !quiet;
+  o.jacobi_scaling = !no_jacobi;
 
   ReadOptions read_options;
   read_options.strict = strict;

@@ -270,7 +270,8 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
   ceres::Solve(so, &graph_problem.problem(), &summary);
 
   result.final_chi2 = Chi2(graph);
-  result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  // Ceres counts its starting point (iteration 0) as a successful step.
+  result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
   result.linearize_time_s = summary.jacobian_evaluation_time_in_seconds;
   result.linear_solver_time_s = summary.linear_solver_time_in_seconds;
   result.termination = Termination(summary.termination_type);

@@ -1,0 +1,555 @@
+#include "backend/gauss_newton.h"
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <stdexcept>
+#include <thread>
+
+#include "backend/parallel.h"
+
+namespace cairn {
+
+using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+struct GaussNewtonProblem::Block {
+  double* values;
+  int size;     // ambient
+  int tangent;  // local
+  const ceres::Manifold* manifold;
+  bool constant = false;
+  int offset = -1;  // first row of this block in H; -1 when constant
+  int variable = -1;
+};
+
+struct GaussNewtonProblem::Residual {
+  std::unique_ptr<ceres::CostFunction> cost;
+  std::unique_ptr<ceres::LossFunction> loss;
+  std::vector<int> blocks;
+};
+
+// Everything a solve needs, allocated once before the first iteration.
+struct GaussNewtonProblem::Workspace {
+  // Per residual: its values, and for each parameter block the ambient
+  // Jacobian (rows x size, Ceres's row-major layout) and the local one.
+  std::vector<int> residual_offset;                // into r
+  std::vector<std::vector<int>> jac_ambient_off;   // into jac_ambient
+  std::vector<std::vector<int>> jac_local_off;     // into jac_local
+  std::vector<double> r, jac_ambient, jac_local;
+  std::vector<double> chi2_terms;                  // per residual, rho(|r|^2)
+  // Per variable block: the manifold's PlusJacobian (size x tangent).
+  std::vector<int> plus_jac_off;
+  std::vector<double> plus_jac;
+  // H's upper triangle, block by block: for block (r, c) with r <= c,
+  // col_start[k + j] is where column j of the block begins in the values,
+  // at the first row of block r.
+  std::vector<int> col_start;
+  struct Contribution {
+    int residual, p, q;  // H(r, c) += Jp^T Jq (p feeds block r, q block c)
+  };
+  struct HBlock {
+    int row_block, col_block, start;  // start: index into col_start
+    std::vector<Contribution> terms;
+  };
+  std::vector<HBlock> h_blocks;
+  std::vector<int> h_block_order;  // h_blocks grouped by column block
+  std::vector<std::vector<std::pair<int, int>>> gradient_terms;  // per variable: (residual, p)
+  std::vector<int> diagonal;  // value index of each H(i, i)
+  std::vector<double> diagonal_saved;
+  std::vector<double> b, dx, x_saved;
+  std::unique_ptr<SparseCholesky> cholesky;
+  std::vector<int> variables;  // non-constant blocks, in H's order
+  CholeskyKind linear_solver = CholeskyKind::kAuto;
+  int n = 0;
+  int max_tangent = 1, max_size = 1;
+  size_t max_arity = 1;
+};
+
+GaussNewtonProblem::GaussNewtonProblem() = default;
+GaussNewtonProblem::~GaussNewtonProblem() = default;
+
+int GaussNewtonProblem::TangentDimension() const { return ws_ ? ws_->n : 0; }
+long GaussNewtonProblem::FactorNonZeros() const { return ws_ ? ws_->cholesky->FactorNonZeros() : 0; }
+CholeskyKind GaussNewtonProblem::LinearSolver() const {
+  return ws_ ? ws_->linear_solver : CholeskyKind::kAuto;
+}
+
+int GaussNewtonProblem::NumParameterBlocks() const { return static_cast<int>(blocks_.size()); }
+int GaussNewtonProblem::NumResidualBlocks() const { return static_cast<int>(residuals_.size()); }
+
+void GaussNewtonProblem::AddParameterBlock(double* values, int size,
+                                           const ceres::Manifold* manifold) {
+  auto it = block_index_.find(values);
+  if (it != block_index_.end()) {
+    Block& b = blocks_[it->second];
+    if (b.size != size) throw std::invalid_argument("parameter block re-added with another size");
+    if (manifold) {
+      b.manifold = manifold;
+      b.tangent = manifold->TangentSize();
+    }
+    return;
+  }
+  if (manifold && manifold->AmbientSize() != size)
+    throw std::invalid_argument("manifold's ambient size differs from the block's size");
+  block_index_.emplace(values, static_cast<int>(blocks_.size()));
+  blocks_.push_back(Block{values, size, manifold ? manifold->TangentSize() : size, manifold});
+}
+
+void GaussNewtonProblem::SetParameterBlockConstant(double* values) {
+  auto it = block_index_.find(values);
+  if (it == block_index_.end()) throw std::invalid_argument("unknown parameter block");
+  blocks_[it->second].constant = true;
+}
+
+void GaussNewtonProblem::AddResidualBlock(ceres::CostFunction* cost, ceres::LossFunction* loss,
+                                          const std::vector<double*>& blocks) {
+  Residual r;
+  r.cost.reset(cost);
+  r.loss.reset(loss);
+  const auto& sizes = cost->parameter_block_sizes();
+  if (sizes.size() != blocks.size())
+    throw std::invalid_argument("cost function takes a different number of parameter blocks");
+  for (size_t k = 0; k < blocks.size(); ++k) {
+    AddParameterBlock(blocks[k], sizes[k]);
+    r.blocks.push_back(block_index_.at(blocks[k]));
+  }
+  residuals_.push_back(std::move(r));
+}
+
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+double RhoOf(const ceres::LossFunction* loss, double s, double* weight) {
+  if (!loss) {
+    if (weight) *weight = 1.0;
+    return s;
+  }
+  double rho[3];
+  loss->Evaluate(s, rho);
+  if (weight) *weight = rho[1];
+  return rho[0];
+}
+
+}  // namespace
+
+double GaussNewtonProblem::Chi2() {
+  double sum = 0;
+  std::vector<double> r;
+  std::vector<const double*> params;
+  for (const Residual& res : residuals_) {
+    r.resize(res.cost->num_residuals());
+    params.clear();
+    for (int b : res.blocks) params.push_back(blocks_[b].values);
+    if (!res.cost->Evaluate(params.data(), r.data(), nullptr))
+      return std::numeric_limits<double>::quiet_NaN();
+    double s = 0;
+    for (double v : r) s += v * v;
+    sum += RhoOf(res.loss.get(), s, nullptr);
+  }
+  return sum;
+}
+
+void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
+  pool_ = std::make_unique<ThreadPool>(
+      options.threads > 0 ? options.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  ws_ = std::make_unique<Workspace>();
+  Workspace& w = *ws_;
+
+  // Variables: non-constant blocks that some residual touches, in order.
+  std::vector<bool> used(blocks_.size(), false);
+  for (const Residual& r : residuals_)
+    for (int b : r.blocks) used[b] = true;
+  std::vector<int>& variables = w.variables;
+  for (size_t i = 0; i < blocks_.size(); ++i) {
+    Block& b = blocks_[i];
+    b.offset = -1;
+    b.variable = -1;
+    if (b.constant || !used[i]) continue;
+    b.variable = static_cast<int>(variables.size());
+    b.offset = w.n;
+    w.n += b.tangent;
+    variables.push_back(static_cast<int>(i));
+  }
+  const int nvar = static_cast<int>(variables.size());
+  for (const Block& b : blocks_) {
+    w.max_tangent = std::max(w.max_tangent, b.tangent);
+    w.max_size = std::max(w.max_size, b.size);
+  }
+  for (const Residual& r : residuals_) w.max_arity = std::max(w.max_arity, r.blocks.size());
+
+  // Residual and Jacobian storage.
+  int r_total = 0, ja_total = 0, jl_total = 0;
+  w.residual_offset.resize(residuals_.size());
+  w.jac_ambient_off.resize(residuals_.size());
+  w.jac_local_off.resize(residuals_.size());
+  for (size_t k = 0; k < residuals_.size(); ++k) {
+    const int m = residuals_[k].cost->num_residuals();
+    w.residual_offset[k] = r_total;
+    r_total += m;
+    for (int b : residuals_[k].blocks) {
+      const Block& blk = blocks_[b];
+      w.jac_ambient_off[k].push_back(blk.variable >= 0 ? ja_total : -1);
+      w.jac_local_off[k].push_back(blk.variable >= 0 ? jl_total : -1);
+      if (blk.variable >= 0) {
+        ja_total += m * blk.size;
+        jl_total += m * blk.tangent;
+      }
+    }
+  }
+  w.r.resize(r_total);
+  w.jac_ambient.resize(ja_total);
+  w.jac_local.resize(jl_total);
+  w.chi2_terms.resize(residuals_.size());
+  w.plus_jac_off.resize(nvar);
+  int pj_total = 0;
+  for (int v = 0; v < nvar; ++v) {
+    w.plus_jac_off[v] = pj_total;
+    const Block& b = blocks_[variables[v]];
+    pj_total += b.manifold ? b.size * b.tangent : 0;
+  }
+  w.plus_jac.resize(pj_total);
+
+  // Block pattern of H's upper triangle, and who contributes to each block.
+  std::map<std::pair<int, int>, int> h_index;  // (row var, col var) -> h_blocks
+  w.gradient_terms.resize(nvar);
+  for (size_t k = 0; k < residuals_.size(); ++k) {
+    const auto& rb = residuals_[k].blocks;
+    for (size_t p = 0; p < rb.size(); ++p) {
+      const int vp = blocks_[rb[p]].variable;
+      if (vp < 0) continue;
+      w.gradient_terms[vp].emplace_back(static_cast<int>(k), static_cast<int>(p));
+      for (size_t q = 0; q < rb.size(); ++q) {
+        const int vq = blocks_[rb[q]].variable;
+        if (vq < 0 || vp > vq) continue;
+        if (vp == vq && p != q) continue;  // a block listed twice is not supported below
+        auto [it, fresh] = h_index.emplace(std::make_pair(vp, vq), static_cast<int>(w.h_blocks.size()));
+        if (fresh) w.h_blocks.push_back({vp, vq, 0, {}});
+        w.h_blocks[it->second].terms.push_back({static_cast<int>(k), static_cast<int>(p),
+                                                static_cast<int>(q)});
+      }
+    }
+  }
+  // Scalar CSC pattern of the upper triangle: per block column, the block
+  // rows in increasing order (h_index is sorted by (row, col); regroup).
+  std::vector<std::vector<int>> rows_of_col(nvar);
+  for (const auto& [rc, idx] : h_index) rows_of_col[rc.second].push_back(idx);
+  for (auto& v : rows_of_col)
+    std::sort(v.begin(), v.end(), [&](int a, int b) {
+      return w.h_blocks[a].row_block < w.h_blocks[b].row_block;
+    });
+  std::vector<int> col_ptr(w.n + 1, 0), rows;
+  for (auto& hb : w.h_blocks) {
+    hb.start = static_cast<int>(w.col_start.size());
+    w.col_start.resize(w.col_start.size() + blocks_[variables[hb.col_block]].tangent);
+  }
+  w.diagonal.resize(w.n);
+  for (int c = 0; c < nvar; ++c) {
+    const Block& cb = blocks_[variables[c]];
+    for (int j = 0; j < cb.tangent; ++j) {
+      const int col = cb.offset + j;
+      col_ptr[col] = static_cast<int>(rows.size());
+      for (int idx : rows_of_col[c]) {
+        const auto& hb = w.h_blocks[idx];
+        const Block& rb = blocks_[variables[hb.row_block]];
+        w.col_start[hb.start + j] = static_cast<int>(rows.size());
+        const int height = hb.row_block == c ? j + 1 : rb.tangent;
+        for (int i = 0; i < height; ++i) rows.push_back(rb.offset + i);
+      }
+      w.diagonal[col] = static_cast<int>(rows.size()) - 1;
+    }
+  }
+  col_ptr[w.n] = static_cast<int>(rows.size());
+  for (int c = 0; c < nvar; ++c)
+    for (int idx : rows_of_col[c]) w.h_block_order.push_back(idx);
+
+  w.b.resize(w.n);
+  w.dx.resize(w.n);
+  w.diagonal_saved.resize(w.n);
+  for (int v : variables) w.x_saved.insert(w.x_saved.end(), blocks_[v].values, blocks_[v].values + blocks_[v].size);
+
+  w.linear_solver = ResolveCholeskyKind(
+      options.linear_solver, nvar > 0 ? static_cast<double>(w.n) / nvar : 0.0);
+  w.cholesky = SparseCholesky::Create(w.linear_solver);
+  std::vector<int> block_sizes;
+  for (int v : variables) block_sizes.push_back(blocks_[v].tangent);
+  if (w.n > 0) w.cholesky->Analyze(w.n, col_ptr, rows, block_sizes);
+}
+
+
+
+double GaussNewtonProblem::Evaluate(bool jacobians) {
+  Workspace& w = *ws_;
+  pool_->ParallelFor(residuals_.size(), [&](size_t begin, size_t end) {
+      std::vector<const double*> params(w.max_arity);
+      std::vector<double*> jac(w.max_arity);
+      for (size_t k = begin; k < end; ++k) {
+        const Residual& res = residuals_[k];
+        const int m = res.cost->num_residuals();
+        for (size_t p = 0; p < res.blocks.size(); ++p) {
+          params[p] = blocks_[res.blocks[p]].values;
+          jac[p] = jacobians && w.jac_ambient_off[k][p] >= 0
+                       ? w.jac_ambient.data() + w.jac_ambient_off[k][p]
+                       : nullptr;
+        }
+        double* r = w.r.data() + w.residual_offset[k];
+        if (!res.cost->Evaluate(params.data(), r, jacobians ? jac.data() : nullptr)) {
+          w.chi2_terms[k] = std::numeric_limits<double>::infinity();
+          continue;
+        }
+        Eigen::Map<Eigen::VectorXd> rv(r, m);
+        double weight;
+        w.chi2_terms[k] = RhoOf(res.loss.get(), rv.squaredNorm(), &weight);
+        if (!jacobians) continue;
+        // Iteratively reweighted: sqrt(rho') scales residual and Jacobian.
+        const double sw = std::sqrt(std::max(weight, 0.0));
+        if (res.loss) rv *= sw;
+        for (size_t p = 0; p < res.blocks.size(); ++p) {
+          if (!jac[p]) continue;
+          const Block& blk = blocks_[res.blocks[p]];
+          Eigen::Map<RowMatrix> ja(jac[p], m, blk.size);
+          Eigen::Map<RowMatrix> jl(w.jac_local.data() + w.jac_local_off[k][p], m, blk.tangent);
+          if (blk.manifold) {
+            const Eigen::Map<const RowMatrix> plus(w.plus_jac.data() + w.plus_jac_off[blk.variable],
+                                                   blk.size, blk.tangent);
+            jl.noalias() = ja * plus;
+          } else {
+            jl = ja;
+          }
+          if (res.loss) jl *= sw;
+        }
+      }
+    });
+  double sum = 0;
+  for (double c : w.chi2_terms) sum += c;
+  return sum;
+}
+
+double GaussNewtonProblem::Linearize() {
+  Workspace& w = *ws_;
+  const std::vector<int>& variables = w.variables;
+  const int nvar = static_cast<int>(variables.size());
+    pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
+      for (size_t v = begin; v < end; ++v) {
+        const Block& b = blocks_[variables[v]];
+        if (b.manifold) b.manifold->PlusJacobian(b.values, w.plus_jac.data() + w.plus_jac_off[v]);
+      }
+    });
+    const double chi2 = Evaluate(true);
+    double* h = w.cholesky->values();
+    // H, block by block; each block written by one thread only.
+    pool_->ParallelFor(w.h_block_order.size(), [&](size_t begin, size_t end) {
+      // One buffer per chunk, sized for the largest block.
+      Eigen::MatrixXd buffer(w.max_tangent, w.max_tangent);
+      for (size_t t = begin; t < end; ++t) {
+        const auto& hb = w.h_blocks[w.h_block_order[t]];
+        const int tr = blocks_[variables[hb.row_block]].tangent;
+        const int tc = blocks_[variables[hb.col_block]].tangent;
+        auto acc = buffer.topLeftCorner(tr, tc);
+        acc.setZero();
+        for (const auto& c : hb.terms) {
+          const int m = residuals_[c.residual].cost->num_residuals();
+          const Eigen::Map<const RowMatrix> jp(w.jac_local.data() + w.jac_local_off[c.residual][c.p], m, tr);
+          const Eigen::Map<const RowMatrix> jq(w.jac_local.data() + w.jac_local_off[c.residual][c.q], m, tc);
+          acc.noalias() += jp.transpose() * jq;
+        }
+        const bool diag = hb.row_block == hb.col_block;
+        for (int j = 0; j < tc; ++j) {
+          double* col = h + w.col_start[hb.start + j];
+          const int height = diag ? j + 1 : tr;
+          for (int i = 0; i < height; ++i) col[i] = acc(i, j);
+        }
+      }
+    });
+    pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
+      for (size_t v = begin; v < end; ++v) {
+        const Block& b = blocks_[variables[v]];
+        Eigen::Map<Eigen::VectorXd> g(w.b.data() + b.offset, b.tangent);
+        g.setZero();
+        for (const auto& [k, p] : w.gradient_terms[v]) {
+          const int m = residuals_[k].cost->num_residuals();
+          const Eigen::Map<const RowMatrix> jp(w.jac_local.data() + w.jac_local_off[k][p], m, b.tangent);
+          g.noalias() += jp.transpose() * Eigen::Map<const Eigen::VectorXd>(w.r.data() + w.residual_offset[k], m);
+        }
+      }
+    });
+    for (int i = 0; i < w.n; ++i) w.diagonal_saved[i] = w.cholesky->values()[w.diagonal[i]];
+    return chi2;
+}
+
+bool GaussNewtonProblem::SolveStep(double lambda, double* step_norm) {
+  Workspace& w = *ws_;
+  double* h = w.cholesky->values();
+  for (int i = 0; i < w.n; ++i)
+    h[w.diagonal[i]] = w.diagonal_saved[i] + lambda * std::max(w.diagonal_saved[i], 1e-12);
+  if (!w.cholesky->Factorize()) return false;
+  w.cholesky->Solve(w.b.data(), w.dx.data());
+  for (double& d : w.dx) d = -d;
+  *step_norm = Eigen::Map<const Eigen::VectorXd>(w.dx.data(), w.n).norm();
+  return std::isfinite(*step_norm);
+}
+
+void GaussNewtonProblem::SaveEstimate() {
+  Workspace& w = *ws_;
+  size_t o = 0;
+  for (int v : w.variables) {
+    std::copy(blocks_[v].values, blocks_[v].values + blocks_[v].size, w.x_saved.begin() + o);
+    o += blocks_[v].size;
+  }
+}
+
+void GaussNewtonProblem::RestoreEstimate() {
+  Workspace& w = *ws_;
+  size_t o = 0;
+  for (int v : w.variables) {
+    std::copy(w.x_saved.begin() + o, w.x_saved.begin() + o + blocks_[v].size, blocks_[v].values);
+    o += blocks_[v].size;
+  }
+}
+
+void GaussNewtonProblem::ApplyStep() {
+  Workspace& w = *ws_;
+  pool_->ParallelFor(w.variables.size(), [&](size_t begin, size_t end) {
+    std::vector<double> tmp(w.max_size);
+    for (size_t v = begin; v < end; ++v) {
+      Block& b = blocks_[w.variables[v]];
+      const double* d = w.dx.data() + b.offset;
+      if (b.manifold) {
+        b.manifold->Plus(b.values, d, tmp.data());
+        std::copy(tmp.begin(), tmp.begin() + b.size, b.values);
+      } else {
+        for (int k = 0; k < b.size; ++k) b.values[k] += d[k];
+      }
+    }
+  });
+}
+
+SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  SolveResult result;
+  result.solver = "gn";
+  Prepare(options);
+  Workspace& w = *ws_;
+  auto progress = [&](const IterationRecord& it) {
+    if (options.verbose) std::fprintf(stderr, "%s\n", FormatIteration(it).c_str());
+  };
+
+  result.setup_time_s = Seconds(t0);
+  double chi2 = Evaluate(false);
+  result.initial_chi2 = chi2;
+  auto record = [&](int iteration, double step_norm, bool accepted, double solve_s) {
+    IterationRecord it;
+    it.iteration = iteration;
+    it.chi2 = chi2;
+    it.step_norm = step_norm;
+    it.time_s = Seconds(t0);
+    it.accepted = accepted;
+    it.linear_solver_time_s = solve_s;
+    result.trace.push_back(it);
+    progress(it);
+  };
+  record(0, 0, true, 0);
+  auto finish = [&](const char* termination, const std::string& message, bool converged) {
+    result.termination = termination;
+    result.message = message + " (linear solver " + ToString(w.linear_solver) + ")";
+    result.converged = converged;
+    result.final_chi2 = chi2;
+    result.usable = std::isfinite(chi2) && chi2 <= result.initial_chi2;
+    result.time_s = Seconds(t0);
+    return result;
+  };
+  if (!std::isfinite(chi2))
+    return finish("failure", "the initial estimate gives a non-finite chi-squared", false);
+  if (w.n == 0) return finish("convergence", "nothing to optimise: every block is constant", true);
+
+  double resume_lambda = 0;
+  for (int iter = 1; iter <= options.max_iterations; ++iter) {
+    const auto tl = std::chrono::steady_clock::now();
+    Linearize();
+    result.linearize_time_s += Seconds(tl);
+    const double g_max = Eigen::Map<const Eigen::VectorXd>(w.b.data(), w.n).cwiseAbs().maxCoeff();
+    if (g_max <= options.gradient_tolerance)
+      return finish("convergence",
+                    "gradient tolerance reached: max |g| " + std::to_string(g_max), true);
+    SaveEstimate();
+    double x_norm = 0;
+    for (double v : w.x_saved) x_norm += v * v;
+    x_norm = std::sqrt(x_norm);
+
+    // Pure Gauss-Newton until a step fails to lower chi2; damped from then on.
+    double lambda = resume_lambda, nu = 2, solve_s = 0, new_chi2 = chi2, step_norm = 0;
+    bool accepted = false, at_rounding = false;
+    for (;;) {
+      const auto ts = std::chrono::steady_clock::now();
+      bool ok = SolveStep(lambda, &step_norm);
+      const double s = Seconds(ts);
+      solve_s += s;
+      result.linear_solver_time_s += s;
+      if (ok) {
+        ApplyStep();
+        const auto te = std::chrono::steady_clock::now();
+        new_chi2 = Evaluate(false);
+        result.linearize_time_s += Seconds(te);
+        if (std::isfinite(new_chi2) && new_chi2 <= chi2) {
+          accepted = true;
+          break;
+        }
+        RestoreEstimate();
+        // A rise within rounding of chi2 means the estimate is already at
+        // the minimum: damping would only repeat the same factorisation.
+        if (std::isfinite(new_chi2) && new_chi2 - chi2 <= 1e-12 * chi2) {
+          at_rounding = true;
+          break;
+        }
+      }
+      // Levenberg-Marquardt's schedule once Gauss-Newton has failed:
+      // doubling growth on each refusal, as Ceres's trust region shrinks.
+      const double next = lambda == 0 ? options.damping : lambda * nu;
+      nu *= 2;
+      if (options.verbose)
+        std::fprintf(stderr, "         %s; trying a damped step (lambda %.1e)\n",
+                     !ok ? "normal equations not positive definite"
+                         : (lambda == 0 ? "Gauss-Newton step raised chi2" : "damped step raised chi2"),
+                     next);
+      lambda = next;
+      if (lambda > 1e12) break;
+    }
+    result.iterations = iter;
+    // After a success the damping relaxes by a third, never back to zero:
+    // a problem that once needed damping (a curved, flat valley) tends to
+    // again, and restarting from pure Gauss-Newton would waste a solve.
+    resume_lambda = lambda == 0 ? 0.0 : std::max(lambda / 3, 1e-12);
+    if (at_rounding) {
+      record(iter, step_norm, false, solve_s);
+      return finish("convergence",
+                    "converged: the next step changes chi-squared only within rounding", true);
+    }
+    if (!accepted) {
+      record(iter, step_norm, false, solve_s);
+      return finish("convergence",
+                    "no step lowers chi-squared, damped or not: the estimate is a minimum "
+                    "to the solver's precision",
+                    true);
+    }
+    const double decrease = (chi2 - new_chi2) / std::max(chi2, std::numeric_limits<double>::min());
+    chi2 = new_chi2;
+    record(iter, step_norm, true, solve_s);
+    if (decrease < options.function_tolerance)
+      return finish("convergence",
+                    "function tolerance reached: relative decrease " + std::to_string(decrease),
+                    true);
+    if (step_norm <= options.parameter_tolerance * (x_norm + options.parameter_tolerance))
+      return finish("convergence", "parameter tolerance reached", true);
+  }
+  return finish("no_convergence",
+                "iteration limit reached (" + std::to_string(options.max_iterations) + ")", false);
+}
+
+}  // namespace cairn

@@ -1,0 +1,84 @@
+// cairn's own Gauss-Newton solver. It takes the same Ceres cost functions,
+// loss functions and manifolds a ceres::Problem takes (so its Jacobians come
+// from the very same autodiff factors) and solves the normal equations
+// H dx = -b by sparse Cholesky, with the symbolic analysis done once.
+#pragma once
+
+#include <ceres/cost_function.h>
+#include <ceres/loss_function.h>
+#include <ceres/manifold.h>
+
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "backend/parallel.h"
+#include "backend/solve_result.h"
+#include "backend/sparse_cholesky.h"
+
+namespace cairn {
+
+// The common options (iterations, tolerances, threads, progress, robust
+// loss for loop closures) mean the same as for the Ceres path.
+struct GaussNewtonOptions : SolverOptions {
+  // First Levenberg-Marquardt damping (times diag(H)) tried when a pure
+  // Gauss-Newton step would raise chi-squared; multiplied by 10 until a step
+  // lowers it.
+  double damping = 1e-4;
+  CholeskyKind linear_solver = CholeskyKind::kAuto;
+};
+
+// A least-squares problem in the shape of ceres::Problem, for our solver.
+class GaussNewtonProblem {
+ public:
+  GaussNewtonProblem();
+  ~GaussNewtonProblem();
+
+  // `values` (size doubles) stays owned by the caller and is updated in
+  // place; `manifold` (not owned, may be null) sets the tangent space.
+  void AddParameterBlock(double* values, int size, const ceres::Manifold* manifold = nullptr);
+  void SetParameterBlockConstant(double* values);
+  // Takes ownership of `cost` and `loss` (loss may be null). Blocks not yet
+  // added are added without a manifold.
+  void AddResidualBlock(ceres::CostFunction* cost, ceres::LossFunction* loss,
+                        const std::vector<double*>& blocks);
+
+  int NumParameterBlocks() const;
+  int NumResidualBlocks() const;
+
+  // Sum over residual blocks of rho(|r|^2) (|r|^2 without a loss): with
+  // whitened residuals, g2o's chi-squared.
+  double Chi2();
+  SolveResult Solve(const GaussNewtonOptions& options);
+
+  // The steps Solve takes, for benchmarks and callers that drive their own
+  // loop. Prepare fixes the pattern of H and runs the symbolic analysis;
+  // Linearize assembles H and b at the current estimate and returns chi2;
+  // SolveStep factorises H + lambda diag(H) and solves for the step (false
+  // if not positive definite); ApplyStep moves the estimate by it.
+  void Prepare(const GaussNewtonOptions& options);
+  double Linearize();
+  bool SolveStep(double lambda, double* step_norm);
+  void ApplyStep();
+  int TangentDimension() const;
+  long FactorNonZeros() const;
+  CholeskyKind LinearSolver() const;  // the one Prepare chose
+
+ private:
+  struct Block;
+  struct Residual;
+  struct Workspace;
+
+  double Evaluate(bool jacobians);
+  void SaveEstimate();
+  void RestoreEstimate();
+
+  std::vector<Block> blocks_;
+  std::unordered_map<const double*, int> block_index_;
+  std::vector<Residual> residuals_;
+  std::unique_ptr<Workspace> ws_;
+  std::unique_ptr<ThreadPool> pool_;
+};
+
+}  // namespace cairn

@@ -1,0 +1,207 @@
+#include "backend/sparse_cholesky.h"
+
+#include <cholmod.h>
+
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <cstring>
+#include <stdexcept>
+
+namespace cairn {
+
+CholeskyKind ParseCholeskyKind(const std::string& name) {
+  if (name == "auto") return CholeskyKind::kAuto;
+  if (name == "cholmod" || name == "supernodal") return CholeskyKind::kCholmodSupernodal;
+  if (name == "simplicial") return CholeskyKind::kCholmodSimplicial;
+  if (name == "cholmod-auto") return CholeskyKind::kCholmodAuto;
+  if (name == "eigen") return CholeskyKind::kEigenLDLT;
+  throw std::invalid_argument("unknown linear solver '" + name +
+                              "' (auto, supernodal, simplicial, cholmod-auto or eigen)");
+}
+
+const char* ToString(CholeskyKind kind) {
+  switch (kind) {
+    case CholeskyKind::kAuto: return "auto";
+    case CholeskyKind::kCholmodSupernodal: return "cholmod-supernodal";
+    case CholeskyKind::kCholmodSimplicial: return "cholmod-simplicial";
+    case CholeskyKind::kCholmodAuto: return "cholmod-auto";
+    case CholeskyKind::kEigenLDLT: return "eigen-ldlt";
+  }
+  return "?";
+}
+
+namespace {
+
+class Cholmod final : public SparseCholesky {
+ public:
+  explicit Cholmod(int mode) {
+    cholmod_start(&common_);
+    common_.supernodal = mode;
+    // AMD alone: the default also tries METIS/NESDIS, which costs more in the
+    // one-off analysis than it saves on pose graphs.
+    common_.nmethods = 1;
+    common_.method[0].ordering = CHOLMOD_AMD;
+    common_.postorder = 1;
+    common_.print = 0;
+    common_.error_handler = nullptr;
+  }
+  ~Cholmod() override {
+    if (factor_) cholmod_free_factor(&factor_, &common_);
+    if (a_) cholmod_free_sparse(&a_, &common_);
+    if (x_) cholmod_free_dense(&x_, &common_);
+    if (b_) cholmod_free_dense(&b_, &common_);
+    if (y_) cholmod_free_dense(&y_, &common_);
+    if (e_) cholmod_free_dense(&e_, &common_);
+    cholmod_finish(&common_);
+  }
+
+  void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
+               const std::vector<int>& block_sizes) override {
+    n_ = n;
+    a_ = cholmod_allocate_sparse(n, n, rows.size(), /*sorted=*/1, /*packed=*/1, /*stype=*/1,
+                                 CHOLMOD_REAL, &common_);
+    if (!a_) throw std::runtime_error("CHOLMOD: out of memory allocating the normal matrix");
+    std::memcpy(a_->p, col_ptr.data(), sizeof(int) * (n + 1));
+    std::memcpy(a_->i, rows.data(), sizeof(int) * rows.size());
+    std::memset(a_->x, 0, sizeof(double) * rows.size());
+    const std::vector<int> perm = BlockOrdering(n, col_ptr, rows, block_sizes);
+    if (!perm.empty()) {
+      common_.method[0].ordering = CHOLMOD_GIVEN;
+      factor_ = cholmod_analyze_p(a_, const_cast<int*>(perm.data()), nullptr, 0, &common_);
+    } else {
+      factor_ = cholmod_analyze(a_, &common_);
+    }
+    if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
+    b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, &common_);
+  }
+
+  double* values() override { return static_cast<double*>(a_->x); }
+
+  bool Factorize() override {
+    const int ok = cholmod_factorize(a_, factor_, &common_);
+    return ok && common_.status == CHOLMOD_OK;
+  }
+
+  void Solve(const double* b, double* x) override {
+    std::memcpy(b_->x, b, sizeof(double) * n_);
+    // cholmod_solve2 keeps its result and workspace between calls.
+    cholmod_solve2(CHOLMOD_A, factor_, b_, nullptr, &x_, nullptr, &y_, &e_, &common_);
+    std::memcpy(x, x_->x, sizeof(double) * n_);
+  }
+
+  long FactorNonZeros() const override {
+    if (!factor_) return 0;
+    if (factor_->is_super) {
+      long nz = 0;
+      const int* super = static_cast<const int*>(factor_->super);
+      const int* pi = static_cast<const int*>(factor_->pi);
+      for (size_t s = 0; s < factor_->nsuper; ++s) {
+        const long cols = super[s + 1] - super[s], rows = pi[s + 1] - pi[s];
+        nz += cols * rows - cols * (cols - 1) / 2;
+      }
+      return nz;
+    }
+    long nz = 0;
+    const int* cnt = static_cast<const int*>(factor_->nz);
+    for (size_t j = 0; j < factor_->n; ++j) nz += cnt[j];
+    return nz;
+  }
+
+  bool IsSupernodal() const override { return factor_ && factor_->is_super; }
+
+ private:
+  // AMD on the block graph, expanded to scalars; empty when not blocked.
+  std::vector<int> BlockOrdering(int n, const std::vector<int>& col_ptr,
+                                 const std::vector<int>& rows,
+                                 const std::vector<int>& block_sizes) {
+    if (block_sizes.size() < 2) return {};
+    const int nb = static_cast<int>(block_sizes.size());
+    std::vector<int> first(nb + 1, 0), block_of(n);
+    for (int b = 0; b < nb; ++b) first[b + 1] = first[b] + block_sizes[b];
+    if (first[nb] != n) throw std::invalid_argument("block sizes do not add up to the matrix size");
+    for (int b = 0; b < nb; ++b)
+      for (int i = first[b]; i < first[b + 1]; ++i) block_of[i] = b;
+    // The last scalar column of a block holds every block row it touches.
+    std::vector<int> bp(nb + 1, 0), bi;
+    for (int b = 0; b < nb; ++b) {
+      const int col = first[b + 1] - 1;
+      int last = -1;
+      for (int k = col_ptr[col]; k < col_ptr[col + 1]; ++k) {
+        const int rb = block_of[rows[k]];
+        if (rb != last) bi.push_back(last = rb);
+      }
+      bp[b + 1] = static_cast<int>(bi.size());
+    }
+    cholmod_sparse* pattern = cholmod_allocate_sparse(nb, nb, bi.size(), 1, 1, 1, CHOLMOD_PATTERN, &common_);
+    std::memcpy(pattern->p, bp.data(), sizeof(int) * (nb + 1));
+    std::memcpy(pattern->i, bi.data(), sizeof(int) * bi.size());
+    std::vector<int> block_perm(nb);
+    const int ok = cholmod_amd(pattern, nullptr, 0, block_perm.data(), &common_);
+    cholmod_free_sparse(&pattern, &common_);
+    if (!ok) return {};
+    std::vector<int> perm;
+    perm.reserve(n);
+    for (int b : block_perm)
+      for (int i = first[b]; i < first[b + 1]; ++i) perm.push_back(i);
+    return perm;
+  }
+
+  cholmod_common common_;
+  cholmod_sparse* a_ = nullptr;
+  cholmod_factor* factor_ = nullptr;
+  cholmod_dense *b_ = nullptr, *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;
+  int n_ = 0;
+};
+
+class EigenLDLT final : public SparseCholesky {
+ public:
+  void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
+               const std::vector<int>&) override {
+    a_.resize(n, n);
+    a_.resizeNonZeros(static_cast<Eigen::Index>(rows.size()));
+    std::memcpy(a_.outerIndexPtr(), col_ptr.data(), sizeof(int) * (n + 1));
+    std::memcpy(a_.innerIndexPtr(), rows.data(), sizeof(int) * rows.size());
+    std::fill(a_.valuePtr(), a_.valuePtr() + rows.size(), 0.0);
+    ldlt_.analyzePattern(a_);
+  }
+  double* values() override { return a_.valuePtr(); }
+  bool Factorize() override {
+    ldlt_.factorize(a_);
+    if (ldlt_.info() != Eigen::Success) return false;
+    nnz_ = ldlt_.matrixL().nestedExpression().nonZeros();
+    return (ldlt_.vectorD().array() > 0).all();
+  }
+  void Solve(const double* b, double* x) override {
+    Eigen::Map<Eigen::VectorXd>(x, a_.rows()) =
+        ldlt_.solve(Eigen::Map<const Eigen::VectorXd>(b, a_.rows()));
+  }
+  long FactorNonZeros() const override { return nnz_; }
+  bool IsSupernodal() const override { return false; }
+
+ private:
+  // Eigen's IndexType int matches CHOLMOD's, so one pattern serves both.
+  Eigen::SparseMatrix<double, Eigen::ColMajor, int> a_;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double, Eigen::ColMajor, int>, Eigen::Upper> ldlt_;
+  long nnz_ = 0;
+};
+
+}  // namespace
+
+CholeskyKind ResolveCholeskyKind(CholeskyKind kind, double mean_block_size) {
+  if (kind != CholeskyKind::kAuto) return kind;
+  return mean_block_size >= 4.5 ? CholeskyKind::kCholmodSupernodal
+                                : CholeskyKind::kCholmodSimplicial;
+}
+
+std::unique_ptr<SparseCholesky> SparseCholesky::Create(CholeskyKind kind) {
+  switch (kind) {
+    case CholeskyKind::kAuto: return Create(CholeskyKind::kCholmodSupernodal);
+    case CholeskyKind::kCholmodSupernodal: return std::make_unique<Cholmod>(CHOLMOD_SUPERNODAL);
+    case CholeskyKind::kCholmodSimplicial: return std::make_unique<Cholmod>(CHOLMOD_SIMPLICIAL);
+    case CholeskyKind::kCholmodAuto: return std::make_unique<Cholmod>(CHOLMOD_AUTO);
+    case CholeskyKind::kEigenLDLT: return std::make_unique<EigenLDLT>();
+  }
+  return nullptr;
+}
+
+}  // namespace cairn

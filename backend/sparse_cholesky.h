@@ -1,0 +1,52 @@
+// Sparse Cholesky with a fixed pattern: the symbolic analysis (fill-reducing
+// ordering) once, then only numeric factorisations, as Gauss-Newton needs.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace cairn {
+
+enum class CholeskyKind {
+  kAuto,               // cairn's choice per problem: see ResolveCholeskyKind
+  kCholmodSupernodal,  // CHOLMOD, supernodal (BLAS-bound; fast with OpenBLAS)
+  kCholmodSimplicial,  // CHOLMOD, simplicial (up-looking; good on small 2D graphs)
+  kCholmodAuto,        // CHOLMOD chooses by flops per nonzero
+  kEigenLDLT,          // Eigen's SimplicialLDLT with AMD: the fallback without CHOLMOD
+};
+
+// Parses "auto", "supernodal" (or "cholmod"), "simplicial", "cholmod-auto",
+// "eigen"; throws std::invalid_argument otherwise.
+CholeskyKind ParseCholeskyKind(const std::string& name);
+const char* ToString(CholeskyKind kind);
+
+// kAuto made concrete: CHOLMOD supernodal when the poses are 6-dof blocks
+// (3D: dense 6x6 blocks feed BLAS well), CHOLMOD simplicial for 3-dof
+// blocks (2D: supernodes stay small and their padding costs more than BLAS
+// saves). Measured in docs/benchmarks.md. Other kinds are returned as given.
+CholeskyKind ResolveCholeskyKind(CholeskyKind kind, double mean_block_size);
+
+class SparseCholesky {
+ public:
+  virtual ~SparseCholesky() = default;
+  static std::unique_ptr<SparseCholesky> Create(CholeskyKind kind);
+
+  // The upper triangle of a symmetric n x n matrix in compressed columns,
+  // rows sorted within each column. Called once. `block_sizes`, if not
+  // empty, splits the rows into dense diagonal blocks (one per pose): the
+  // fill-reducing ordering is then computed on the far smaller block graph.
+  virtual void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
+                       const std::vector<int>& block_sizes = {}) = 0;
+  // The matrix's values, in the order of `rows`; callers write into it.
+  virtual double* values() = 0;
+  // False when the matrix is not positive definite.
+  virtual bool Factorize() = 0;
+  // x = A^-1 b, with the last factorisation. x and b may not alias.
+  virtual void Solve(const double* b, double* x) = 0;
+  // Nonzeros of the factor (after the first Factorize).
+  virtual long FactorNonZeros() const = 0;
+  virtual bool IsSupernodal() const = 0;
+};
+
+}  // namespace cairn

@@ -1,0 +1,74 @@
+// The Gauss-Newton path's hot spots on a generated 10,000-pose graph:
+// linearise-and-accumulate (Jacobians from the autodiff factors, H and b
+// assembled block by block) and the numeric factorisation with its solve.
+//   build/bench/bench_gauss_newton --benchmark_min_time=1
+#include <benchmark/benchmark.h>
+
+#include "backend/gauss_newton.h"
+#include "backend/graph_factors.h"
+#include "backend/simulate.h"
+#include "factors/pose_manifold.h"
+
+namespace cairn {
+namespace {
+
+// A simulated graph and its problem, built once per benchmark.
+struct Fixture {
+  Fixture(int dimension, CholeskyKind kind, int threads) : sim(Make(dimension)) {
+    manifold = dimension == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
+    PoseGraph& g = sim.noisy;
+    const auto held = HeldConstant(g);
+    for (size_t i = 0; i < g.vertices().size(); ++i) {
+      problem.AddParameterBlock(g.vertices()[i].x.data(), g.ParameterSize(), manifold.get());
+      if (held[i]) problem.SetParameterBlockConstant(g.vertices()[i].x.data());
+    }
+    for (const Edge& e : g.edges()) {
+      std::vector<double*> blocks{g.vertex(e.from).x.data()};
+      if (!e.IsPrior()) blocks.push_back(g.vertex(e.to).x.data());
+      problem.AddResidualBlock(MakeCostFunction(g, e), nullptr, blocks);
+    }
+    GaussNewtonOptions o;
+    o.linear_solver = kind;
+    o.threads = threads;
+    problem.Prepare(o);
+  }
+  static Simulation Make(int dimension) {
+    SimulationOptions o;
+    o.dimension = dimension;
+    o.poses = 10000;
+    o.nodes_per_lap = 100;
+    o.seed = 1;
+    return Simulate(o);
+  }
+  Simulation sim;
+  std::unique_ptr<ceres::Manifold> manifold;
+  GaussNewtonProblem problem;
+};
+
+void BM_Linearize(benchmark::State& state) {
+  Fixture f(static_cast<int>(state.range(0)), CholeskyKind::kCholmodSupernodal,
+            static_cast<int>(state.range(1)));
+  for (auto _ : state) benchmark::DoNotOptimize(f.problem.Linearize());
+  state.counters["edges"] = static_cast<double>(f.sim.noisy.edges().size());
+}
+
+void BM_Factorize(benchmark::State& state) {
+  Fixture f(static_cast<int>(state.range(0)), static_cast<CholeskyKind>(state.range(1)), 2);
+  f.problem.Linearize();
+  double step = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(f.problem.SolveStep(0.0, &step));
+  state.counters["n"] = f.problem.TangentDimension();
+  state.counters["nnz_L"] = static_cast<double>(f.problem.FactorNonZeros());
+}
+
+// Args: dimension, threads.
+BENCHMARK(BM_Linearize)->Args({2, 1})->Args({2, 2})->Args({3, 1})->Args({3, 2})
+    ->Unit(benchmark::kMillisecond);
+// Args: dimension, CholeskyKind (1 supernodal, 2 simplicial, 4 Eigen LDLT).
+BENCHMARK(BM_Factorize)->Args({2, 1})->Args({2, 2})->Args({2, 4})->Args({3, 1})->Args({3, 2})
+    ->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace cairn
+
+BENCHMARK_MAIN();

@@ -11,41 +11,15 @@
 #include <vector>
 
 #include "backend/chi2.h"
+#include "backend/graph_factors.h"
 #include "cholmod.h"
 #include "factors/pose_manifold.h"
-#include "factors/se2_factors.h"
-#include "factors/se3_factors.h"
 
 namespace cairn {
 namespace {
 
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
-ceres::CostFunction* MakeCost(const PoseGraph& graph, const Edge& edge) {
-  if (graph.dimension() == 2) {
-    const Eigen::Vector3d z(edge.z[0], edge.z[1], edge.z[2]);
-    const Eigen::Matrix3d info = edge.information.topLeftCorner<3, 3>();
-    return edge.IsPrior() ? factors::SE2PriorFactor::Create(z, info)
-                          : factors::SE2BetweenFactor::Create(z, info);
-  }
-  const SE3 z = ToSE3(edge.z);
-  return edge.IsPrior()
-             ? factors::SE3PriorFactor::Create(z.rotation(), z.translation(), edge.information)
-             : factors::SE3BetweenFactor::Create(z.rotation(), z.translation(), edge.information);
-}
-
-std::unique_ptr<ceres::LossFunction> MakeLoss(const RobustLoss& loss) {
-  // Ceres's losses act on the squared norm s = |r|^2 with the same shapes as
-  // g2o's kernels of the same width: Huber s or 2 d sqrt(s) - d^2, Cauchy
-  // d^2 log(1 + s / d^2).
-  switch (loss.kind) {
-    case RobustLoss::kNone: return nullptr;
-    case RobustLoss::kHuber: return std::make_unique<ceres::HuberLoss>(loss.delta);
-    case RobustLoss::kCauchy: return std::make_unique<ceres::CauchyLoss>(loss.delta);
-  }
-  return nullptr;
 }
 
 class TraceCallback : public ceres::IterationCallback {
@@ -184,38 +158,22 @@ CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_cl
   po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_ = std::make_unique<ceres::Problem>(po);
 
-  std::vector<bool> touched(graph.vertices().size(), false);
-  bool has_prior = false;
-  for (const Edge& e : graph.edges()) {
-    touched[graph.VertexIndex(e.from)] = true;
-    if (e.IsPrior()) {
-      has_prior = true;
-    } else {
-      touched[graph.VertexIndex(e.to)] = true;
-    }
-  }
-
+  // The same parameters and gauge as the Gauss-Newton path (graph_factors.h).
+  const std::vector<bool> touched = TouchedVertices(graph);
+  const std::vector<bool> held = HeldConstant(graph);
   const int size = graph.ParameterSize();
-  bool any_fixed = false;
-  Vertex* lowest = nullptr;
   for (size_t i = 0; i < graph.vertices().size(); ++i) {
     if (!touched[i]) continue;
     Vertex& v = graph.vertices()[i];
     if (size == 7) {
       // The factors invert quaternions by conjugation, right only for unit ones.
-      Eigen::Map<Eigen::Quaterniond> q(v.x.data() + 3);
-      q.normalize();
+      Eigen::Map<Eigen::Quaterniond>(v.x.data() + 3).normalize();
     }
     problem_->AddParameterBlock(v.x.data(), size, manifold_.get());
-    if (v.fixed) {
+    if (held[i]) {
       problem_->SetParameterBlockConstant(v.x.data());
-      any_fixed = true;
+      if (!v.fixed) gauge_ = v.id;
     }
-    if (!lowest || v.id < lowest->id) lowest = &v;
-  }
-  if (!any_fixed && !has_prior && lowest) {
-    problem_->SetParameterBlockConstant(lowest->x.data());
-    gauge_ = lowest->id;
   }
 
   for (const Edge& e : graph.edges()) {
@@ -223,9 +181,10 @@ CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_cl
         e.kind == EdgeKind::kLoopClosure ? loop_closure_loss_.get() : nullptr;
     double* xi = graph.vertex(e.from).x.data();
     if (e.IsPrior()) {
-      problem_->AddResidualBlock(MakeCost(graph, e), loss, xi);
+      problem_->AddResidualBlock(MakeCostFunction(graph, e), loss, xi);
     } else {
-      problem_->AddResidualBlock(MakeCost(graph, e), loss, xi, graph.vertex(e.to).x.data());
+      problem_->AddResidualBlock(MakeCostFunction(graph, e), loss, xi,
+                                 graph.vertex(e.to).x.data());
     }
   }
 }

@@ -368,6 +368,29 @@ TEST(OptimizeTool, WritesGraphReportAndPlot) {
   EXPECT_NE(svg.find("#d62728"), std::string::npos);  // loop closures drawn
 }
 
+TEST(OptimizeTool, GaussNewtonReachesWhatCeresReaches) {
+  Simulation sim = Simulated(3, 200);
+  const std::string dir = ::testing::TempDir();
+  const std::string in = dir + "/cairn_gn_in.g2o";
+  WriteG2o(sim.noisy, in);
+  double final_chi2[2];
+  int k = 0;
+  for (const char* solver : {"ceres", "gn"}) {
+    const std::string report = dir + "/cairn_gn_" + solver + ".json";
+    int status = -1;
+    const std::string log = testing::RunCommand(
+        Tool() + " optimize --quiet --solver " + solver + " '" + in + "' -o '" + in +
+            ".out.g2o' --report '" + report + "' 2>&1",
+        &status);
+    ASSERT_EQ(status, 0) << log;
+    std::ifstream rf(report);
+    const std::string json((std::istreambuf_iterator<char>(rf)), std::istreambuf_iterator<char>());
+    EXPECT_NE(json.find(std::string("\"solver\": \"") + solver + "\""), std::string::npos);
+    final_chi2[k++] = testing::JsonNumber(json, "final_chi2");
+  }
+  EXPECT_NEAR(final_chi2[1], final_chi2[0], 1e-6 * final_chi2[0]);
+}
+
 TEST(OptimizeTool, QuietPrintsNothing) {
   Simulation sim = Simulated(3, 60);
   const std::string in = ::testing::TempDir() + "/cairn_q_in.g2o";
@@ -392,7 +415,7 @@ TEST(OptimizeTool, BadInputNamesFileAndLine) {
 
 TEST(OptimizeTool, RejectsBadOptions) {
   for (const char* args : {"--robust tukey:1", "--solver nope", "--method newton",
-                           "--sparse mkl", "--max-iterations -1"}) {
+                           "--sparse mkl", "--max-iterations -1", "--linear-solver mkl"}) {
     int status = 0;
     const std::string out = testing::RunCommand(
         Tool() + " optimize in.g2o -o out.g2o " + args + " 2>&1", &status);

@@ -26,7 +26,7 @@ data=${CAIRN_DATASETS:-../shared/datasets}/g2o
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
-num() { grep -o "\"$1\": [^,]*" "$2" | head -1 | sed 's/.*: //; s/"//g'; }
+num() { grep -m1 -o "\"$1\": [^,]*" "$2" | sed 's/.*: //; s/"//g'; }
 
 printf "%-18s %-48s %4s %14s %8s %8s  %s\n" file options iter final_chi2 time_s ls_s linear_solver
 for f in $files; do

@@ -119,7 +119,8 @@ int RunOptimize(int argc, char** argv) {
   const PoseGraph before = plot.empty() ? PoseGraph(graph.dimension()) : graph;
 
   const SolveResult result = solver == "gn" ? SolveGaussNewton(graph, gn) : SolveWithCeres(graph, o);
-  WriteFileAtomically(out, [&](std::ostream& os) { WriteG2o(graph, os); });
+  // A failed solve leaves no output behind (the report still says why).
+  if (result.usable) WriteFileAtomically(out, [&](std::ostream& os) { WriteG2o(graph, os); });
 
   if (!report.empty()) {
     const std::vector<std::pair<std::string, std::string>> context = {
@@ -147,7 +148,7 @@ int RunOptimize(int argc, char** argv) {
                  result.termination.c_str());
   }
   if (!result.usable) {
-    PrintError("the solver failed: " + result.message);
+    PrintError("the solver failed, " + out + " not written: " + result.message);
     return 1;
   }
   return 0;

@@ -168,7 +168,12 @@ int RunCompare(int argc, char** argv) {
                     d.max_translation, d.rms_translation, d.max_rotation_deg,
                     d.rms_rotation_deg, chi2_rel, g.time_s / std::max(c.time_s, 1e-12),
                     TimeToReach(g, c.final_chi2));
-      os << "{\"file\": \"" << path << "\", \"ceres\": " << SolverJson(c)
+      char init_buf[256];
+      std::snprintf(init_buf, sizeof init_buf,
+                    "{\"method\": \"%s\", \"time_s\": %.6f, \"chi2\": %.17g}",
+                    ToString(init_method), init_report.time_s, init_report.chi2);
+      os << "{\"file\": \"" << path << "\", \"init\": " << init_buf
+         << ", \"ceres\": " << SolverJson(c)
          << ", \"gn\": " << SolverJson(g) << ", " << buf << "}\n";
     });
   }

@@ -75,8 +75,12 @@ void CheckExcitation(const std::vector<CalibrationPair>& pairs, double threshold
   const Eigen::Vector3d d = m.diagonal();
   const double d_max = d.maxCoeff();
   if (!(d_max > 0)) throw DegenerateCalibration("every odometry increment is zero: X cannot be estimated");
+  // Name every unexcited component: a robot that never turned has usually
+  // not moved sideways either.
+  std::string unexcited;
   for (int j = 2; j >= 0; --j)
-    if (d[j] <= threshold * d_max) throw DegenerateCalibration(UnexcitedComponent(j));
+    if (d[j] <= threshold * d_max) unexcited += (unexcited.empty() ? "" : "; ") + UnexcitedComponent(j);
+  if (!unexcited.empty()) throw DegenerateCalibration(unexcited);
   // Combinations: u confined to a plane, e.g. dtheta proportional to dx (one
   // constant curvature). Normalised by the diagonal so units do not matter.
   const Eigen::Vector3d s = d.cwiseSqrt().cwiseInverse();

@@ -154,6 +154,13 @@ TEST(Calibration, RefusesUnexcitedDirections) {
   EXPECT_NE(why.find("never turned"), std::string::npos) << why;
   EXPECT_NE(why.find("theta column"), std::string::npos) << why;
 
+  // Straight lines only: both columns named.
+  CalibrationData line = straight;
+  for (CalibrationPair& p : line.pairs) p.u[1] = 0;
+  why = RefusalOf(line);
+  EXPECT_NE(why.find("theta column"), std::string::npos) << why;
+  EXPECT_NE(why.find("y column"), std::string::npos) << why;
+
   CalibrationData no_side = Synthetic(TrueX(), 100, 0, 1);
   for (CalibrationPair& p : no_side.pairs) p.u[1] = 0;
   why = RefusalOf(no_side);

@@ -27,6 +27,9 @@ struct GaussNewtonOptions : SolverOptions {
   // lowers it.
   double damping = 1e-4;
   CholeskyKind linear_solver = CholeskyKind::kAuto;
+  // Once chi2 falls by less than 2% a step, try the last factorisation of
+  // H with the new gradient before factorising again (see Solve).
+  bool reuse_factorization = true;
 };
 
 // A least-squares problem in the shape of ceres::Problem, for our solver.
@@ -58,8 +61,10 @@ class GaussNewtonProblem {
   // SolveStep factorises H + lambda diag(H) and solves for the step (false
   // if not positive definite); ApplyStep moves the estimate by it.
   void Prepare(const GaussNewtonOptions& options);
-  double Linearize();
+  double Linearize(bool assemble_h = true);
   bool SolveStep(double lambda, double* step_norm);
+  // The step from the last factorisation and the current gradient.
+  bool SolveWithLastFactor(double* step_norm);
   void ApplyStep();
   int TangentDimension() const;
   long FactorNonZeros() const;

@@ -4,7 +4,11 @@
 //   build/bench/bench_gauss_newton --benchmark_min_time=1
 #include <benchmark/benchmark.h>
 
+#include <filesystem>
+#include <string>
+
 #include "backend/gauss_newton.h"
+#include "backend/graph_io.h"
 #include "backend/graph_factors.h"
 #include "backend/simulate.h"
 #include "factors/pose_manifold.h"
@@ -12,11 +16,13 @@
 namespace cairn {
 namespace {
 
-// A simulated graph and its problem, built once per benchmark.
+// A graph and its problem, built once per benchmark: simulated, or a shared
+// dataset file when `file` is given.
 struct Fixture {
-  Fixture(int dimension, CholeskyKind kind, int threads) : sim(Make(dimension)) {
-    manifold = dimension == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
+  Fixture(int dimension, CholeskyKind kind, int threads, const std::string& file = "")
+      : sim(file.empty() ? Make(dimension) : Simulation{ReadGraph(file), PoseGraph(2), {}}) {
     PoseGraph& g = sim.noisy;
+    manifold = g.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
     const auto held = HeldConstant(g);
     for (size_t i = 0; i < g.vertices().size(); ++i) {
       problem.AddParameterBlock(g.vertices()[i].x.data(), g.ParameterSize(), manifold.get());
@@ -60,6 +66,41 @@ void BM_Factorize(benchmark::State& state) {
   state.counters["n"] = f.problem.TangentDimension();
   state.counters["nnz_L"] = static_cast<double>(f.problem.FactorNonZeros());
 }
+
+// The same two hot spots on the shared files, where the datasets are present.
+const char* const kFiles[] = {"2d/city10000.g2o", "3d/sphere2500.g2o"};
+
+std::string FilePath(int k) { return std::string(CAIRN_DATASETS) + "/g2o/" + kFiles[k]; }
+
+void BM_FileLinearize(benchmark::State& state) {
+  const std::string path = FilePath(static_cast<int>(state.range(0)));
+  if (!std::filesystem::exists(path)) {
+    state.SkipWithError(("dataset not found: " + path).c_str());
+    return;
+  }
+  Fixture f(0, CholeskyKind::kAuto, 2, path);
+  for (auto _ : state) benchmark::DoNotOptimize(f.problem.Linearize());
+  state.SetLabel(kFiles[state.range(0)]);
+}
+
+void BM_FileFactorize(benchmark::State& state) {
+  const std::string path = FilePath(static_cast<int>(state.range(0)));
+  if (!std::filesystem::exists(path)) {
+    state.SkipWithError(("dataset not found: " + path).c_str());
+    return;
+  }
+  Fixture f(0, static_cast<CholeskyKind>(state.range(1)), 2, path);
+  f.problem.Linearize();
+  double step = 0;
+  for (auto _ : state) benchmark::DoNotOptimize(f.problem.SolveStep(0.0, &step));
+  state.SetLabel(std::string(kFiles[state.range(0)]) + " " + ToString(f.problem.LinearSolver()));
+  state.counters["nnz_L"] = static_cast<double>(f.problem.FactorNonZeros());
+}
+
+BENCHMARK(BM_FileLinearize)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+// Args: file, CholeskyKind (1 supernodal, 2 simplicial, 4 Eigen LDLT).
+BENCHMARK(BM_FileFactorize)->Args({0, 1})->Args({0, 2})->Args({0, 4})->Args({1, 1})
+    ->Args({1, 2})->Unit(benchmark::kMillisecond);
 
 // Args: dimension, threads.
 BENCHMARK(BM_Linearize)->Args({2, 1})->Args({2, 2})->Args({3, 1})->Args({3, 2})

@@ -1,5 +1,5 @@
 // Incremental use as a robot runs: poses, odometry and loop closures arrive
-// one at a time; the graph is re-optimised every few poses, warm-started,
+// one at a time; the graph is re-optimised every ten poses, warm-started,
 // and the uncertainty of the newest pose is read off at the end.
 #include <algorithm>
 #include <cmath>
@@ -28,9 +28,10 @@ int main() {
     // Then every measurement that ends at the new pose (odometry and loop closures).
     for (; next < edges.size() && std::max(edges[next].from, edges[next].to) <= i; ++next)
       optimizer.AddEdge(edges[next]);
-    if (i % 50 == 0 || i + 1 == sim_options.poses) {
+    if (i % 10 == 0 || i + 1 == sim_options.poses) {
       const cairn::SolveResult r = optimizer.Optimize(cairn::SolverKind::kGaussNewton);
-      std::printf("after pose %4lld: chi2 %10.4f  %d iterations  %.1f ms\n",
+      if (i % 100 == 0 || i + 1 == sim_options.poses)
+        std::printf("after pose %4lld: chi2 %10.4f  %d iterations  %.1f ms\n",
                   static_cast<long long>(i), r.final_chi2, r.iterations, 1e3 * r.time_s);
       total_iterations += r.iterations;
       ++solves;

@@ -45,9 +45,10 @@ std::string CovarianceJson(const std::vector<int64_t>& ids, const std::vector<Ei
 
 int RunOptimize(int argc, char** argv) {
   std::string in, out, solver = "ceres", robust = "none", method = "lm", sparse = "auto";
-  std::string report, plot, covariance_ids;
+  std::string report, plot;
   bool quiet = false, strict = false;
   CeresOptions o;
+  std::string covariance_ids;  // --covariance: "3,17,42"
   ArgParser args(
       "optimize IN -o OUT.g2o [--solver ceres] [--robust huber:D|cauchy:D] [options]",
       "Optimises a g2o or TORO pose graph from the estimate in the file and writes the\n"

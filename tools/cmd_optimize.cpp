@@ -48,7 +48,6 @@ int RunOptimize(int argc, char** argv) {
   std::string report, plot;
   bool quiet = false, strict = false;
   CeresOptions o;
-  std::string covariance_ids;  // --covariance: "3,17,42"
   ArgParser args(
       "optimize IN -o OUT.g2o [--solver ceres] [--robust huber:D|cauchy:D] [options]",
       "Optimises a g2o or TORO pose graph from the estimate in the file and writes the\n"
@@ -81,6 +80,7 @@ int RunOptimize(int argc, char** argv) {
   args.Option("report", &report, "FILE.json",
               "write a JSON report: initial_chi2, final_chi2, iterations, time_s, "
               "termination, timings and the per-iteration trace");
+  std::string covariance_ids;  // "3,17,42"
   args.Option("covariance", &covariance_ids, "IDS",
               "print the marginal covariances (tangent space, the pose's own frame) of these "
               "vertices at the optimum, e.g. 3,17,42, and add them to the --report JSON");

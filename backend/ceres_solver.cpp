@@ -11,40 +11,15 @@
 #include <vector>
 
 #include "backend/chi2.h"
+#include "backend/graph_factors.h"
+#include "cholmod.h"
 #include "factors/pose_manifold.h"
-#include "factors/se2_factors.h"
-#include "factors/se3_factors.h"
 
 namespace cairn {
 namespace {
 
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
-ceres::CostFunction* MakeCost(const PoseGraph& graph, const Edge& edge) {
-  if (graph.dimension() == 2) {
-    const Eigen::Vector3d z(edge.z[0], edge.z[1], edge.z[2]);
-    const Eigen::Matrix3d info = edge.information.topLeftCorner<3, 3>();
-    return edge.IsPrior() ? factors::SE2PriorFactor::Create(z, info)
-                          : factors::SE2BetweenFactor::Create(z, info);
-  }
-  const SE3 z = ToSE3(edge.z);
-  return edge.IsPrior()
-             ? factors::SE3PriorFactor::Create(z.rotation(), z.translation(), edge.information)
-             : factors::SE3BetweenFactor::Create(z.rotation(), z.translation(), edge.information);
-}
-
-std::unique_ptr<ceres::LossFunction> MakeLoss(const RobustLoss& loss) {
-  // Ceres's losses act on the squared norm s = |r|^2 with the same shapes as
-  // g2o's kernels of the same width: Huber s or 2 d sqrt(s) - d^2, Cauchy
-  // d^2 log(1 + s / d^2).
-  switch (loss.kind) {
-    case RobustLoss::kNone: return nullptr;
-    case RobustLoss::kHuber: return std::make_unique<ceres::HuberLoss>(loss.delta);
-    case RobustLoss::kCauchy: return std::make_unique<ceres::CauchyLoss>(loss.delta);
-  }
-  return nullptr;
 }
 
 class TraceCallback : public ceres::IterationCallback {
@@ -80,6 +55,19 @@ std::string Termination(ceres::TerminationType type) {
   return "failure";
 }
 
+// Below this many flops per nonzero of the factor, the supernodes are too
+// small for CHOLMOD's dense kernels to pay in Ceres: city10000 (83) and
+// parking-garage (54) factor faster simplicial, sphere2500 (252) supernodal.
+constexpr double kSupernodalFlopsPerNonzero = 150;
+
+ceres::SparseLinearAlgebraLibraryType SimplicialLibrary() {
+#ifndef CERES_NO_CXSPARSE
+  return ceres::CX_SPARSE;  // measured a little ahead of Eigen's LDLT
+#else
+  return ceres::EIGEN_SPARSE;
+#endif
+}
+
 ceres::SparseLinearAlgebraLibraryType SparseLibraryFor(const PoseGraph& graph,
                                                        CeresOptions::SparseLibrary choice) {
   switch (choice) {
@@ -88,10 +76,62 @@ ceres::SparseLinearAlgebraLibraryType SparseLibraryFor(const PoseGraph& graph,
     case CeresOptions::SparseLibrary::kCxSparse: return ceres::CX_SPARSE;
     case CeresOptions::SparseLibrary::kAuto: break;
   }
-  return ceres::SUITE_SPARSE;
+  return EstimateFactor(graph).FlopsPerNonzero() >= kSupernodalFlopsPerNonzero
+             ? ceres::SUITE_SPARSE
+             : SimplicialLibrary();
 }
 
 }  // namespace
+
+FactorEstimate EstimateFactor(const PoseGraph& graph) {
+  // The pose-level pattern: one entry per pair of vertices an edge joins.
+  std::vector<std::vector<int>> columns(graph.vertices().size());
+  for (const Edge& e : graph.edges()) {
+    int i = static_cast<int>(graph.VertexIndex(e.from));
+    int j = e.IsPrior() ? i : static_cast<int>(graph.VertexIndex(e.to));
+    if (i > j) std::swap(i, j);
+    columns[j].push_back(i);  // upper triangle: row <= column
+  }
+  const int n = static_cast<int>(columns.size());
+  size_t nnz = 0;
+  for (int j = 0; j < n; ++j) {
+    columns[j].push_back(j);
+    std::sort(columns[j].begin(), columns[j].end());
+    columns[j].erase(std::unique(columns[j].begin(), columns[j].end()), columns[j].end());
+    nnz += columns[j].size();
+  }
+  FactorEstimate est;
+  if (n == 0) return est;
+  cholmod_common cc;
+  cholmod_start(&cc);
+  cc.nmethods = 1;
+  cc.method[0].ordering = CHOLMOD_AMD;
+  cc.supernodal = CHOLMOD_SIMPLICIAL;  // the counts are all we want
+  cholmod_sparse* a = cholmod_allocate_sparse(n, n, nnz, 1, 1, 1, CHOLMOD_PATTERN, &cc);
+  if (a) {
+    auto* p = static_cast<int*>(a->p);
+    auto* rows = static_cast<int*>(a->i);
+    size_t k = 0;
+    for (int j = 0; j < n; ++j) {
+      p[j] = static_cast<int>(k);
+      for (int r : columns[j]) rows[k++] = r;
+    }
+    p[n] = static_cast<int>(k);
+    cholmod_factor* l = cholmod_analyze(a, &cc);
+    if (l) {
+      // Each pose-level entry is a dense b x b block: nonzeros grow by b^2,
+      // flops (a sum of products of column counts) by b^3.
+      const double b = graph.TangentSize();
+      est.size = n * b;
+      est.nonzeros = cc.lnz * b * b;
+      est.flops = cc.fl * b * b * b;
+      cholmod_free_factor(&l, &cc);
+    }
+    cholmod_free_sparse(&a, &cc);
+  }
+  cholmod_finish(&cc);
+  return est;
+}
 
 CeresOptions::Method ParseCeresMethod(const std::string& text) {
   if (text == "lm" || text == "levenberg-marquardt") return CeresOptions::Method::kLevenbergMarquardt;
@@ -118,38 +158,22 @@ CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_cl
   po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_ = std::make_unique<ceres::Problem>(po);
 
-  std::vector<bool> touched(graph.vertices().size(), false);
-  bool has_prior = false;
-  for (const Edge& e : graph.edges()) {
-    touched[graph.VertexIndex(e.from)] = true;
-    if (e.IsPrior()) {
-      has_prior = true;
-    } else {
-      touched[graph.VertexIndex(e.to)] = true;
-    }
-  }
-
+  // The same parameters and gauge as the Gauss-Newton path (graph_factors.h).
+  const std::vector<bool> touched = TouchedVertices(graph);
+  const std::vector<bool> held = HeldConstant(graph);
   const int size = graph.ParameterSize();
-  bool any_fixed = false;
-  Vertex* lowest = nullptr;
   for (size_t i = 0; i < graph.vertices().size(); ++i) {
     if (!touched[i]) continue;
     Vertex& v = graph.vertices()[i];
     if (size == 7) {
       // The factors invert quaternions by conjugation, right only for unit ones.
-      Eigen::Map<Eigen::Quaterniond> q(v.x.data() + 3);
-      q.normalize();
+      Eigen::Map<Eigen::Quaterniond>(v.x.data() + 3).normalize();
     }
     problem_->AddParameterBlock(v.x.data(), size, manifold_.get());
-    if (v.fixed) {
+    if (held[i]) {
       problem_->SetParameterBlockConstant(v.x.data());
-      any_fixed = true;
+      if (!v.fixed) gauge_ = v.id;
     }
-    if (!lowest || v.id < lowest->id) lowest = &v;
-  }
-  if (!any_fixed && !has_prior && lowest) {
-    problem_->SetParameterBlockConstant(lowest->x.data());
-    gauge_ = lowest->id;
   }
 
   for (const Edge& e : graph.edges()) {
@@ -157,9 +181,10 @@ CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_cl
         e.kind == EdgeKind::kLoopClosure ? loop_closure_loss_.get() : nullptr;
     double* xi = graph.vertex(e.from).x.data();
     if (e.IsPrior()) {
-      problem_->AddResidualBlock(MakeCost(graph, e), loss, xi);
+      problem_->AddResidualBlock(MakeCostFunction(graph, e), loss, xi);
     } else {
-      problem_->AddResidualBlock(MakeCost(graph, e), loss, xi, graph.vertex(e.to).x.data());
+      problem_->AddResidualBlock(MakeCostFunction(graph, e), loss, xi,
+                                 graph.vertex(e.to).x.data());
     }
   }
 }
@@ -180,6 +205,8 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
                                       : ceres::LEVENBERG_MARQUARDT;
   so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   so.sparse_linear_algebra_library_type = SparseLibraryFor(graph, options.sparse_library);
+  result.linear_solver = std::string("SPARSE_NORMAL_CHOLESKY/") +
+                         ceres::SparseLinearAlgebraLibraryTypeToString(so.sparse_linear_algebra_library_type);
   so.max_num_iterations = options.max_iterations;
   so.max_solver_time_in_seconds = options.max_time_s;
   so.num_threads = options.threads > 0
@@ -191,6 +218,7 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
   so.jacobi_scaling = options.jacobi_scaling;
   so.initial_trust_region_radius = options.initial_trust_region_radius;
   so.min_lm_diagonal = options.min_lm_diagonal;
+  so.use_postordering = options.use_postordering;
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
   TraceCallback callback(&result, options.verbose);
@@ -201,7 +229,8 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
   ceres::Solve(so, &graph_problem.problem(), &summary);
 
   result.final_chi2 = Chi2(graph);
-  result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  // Ceres counts its starting point (iteration 0) as a successful step.
+  result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
   result.linearize_time_s = summary.jacobian_evaluation_time_in_seconds;
   result.linear_solver_time_s = summary.linear_solver_time_in_seconds;
   result.termination = Termination(summary.termination_type);

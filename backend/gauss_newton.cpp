@@ -499,6 +499,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   result.solver = "gn";
   Prepare(options);
   Workspace& w = *ws_;
+  result.linear_solver = ToString(w.linear_solver);
   auto progress = [&](const IterationRecord& it) {
     if (options.verbose) std::fprintf(stderr, "%s\n", FormatIteration(it).c_str());
   };

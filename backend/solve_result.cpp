@@ -88,6 +88,7 @@ void WriteReportJson(const SolveResult& r, std::ostream& out,
     out << "  " << JsonString(key) << ": " << (LooksNumeric(value) ? value : JsonString(value))
         << ",\n";
   out << "  \"solver\": " << JsonString(r.solver) << ",\n"
+      << "  \"linear_solver\": " << JsonString(r.linear_solver) << ",\n"
       << "  \"initial_chi2\": " << JsonNumber(r.initial_chi2) << ",\n"
       << "  \"final_chi2\": " << JsonNumber(r.final_chi2) << ",\n"
       << "  \"iterations\": " << r.iterations << ",\n"

@@ -50,7 +50,8 @@ struct IterationRecord {
 };
 
 struct SolveResult {
-  std::string solver;  // "ceres", "gn", ...
+  std::string solver;         // "ceres", "gn", ...
+  std::string linear_solver;  // what factored the normal equations
   double initial_chi2 = 0, final_chi2 = 0;
   int iterations = 0;  // steps tried, accepted or not
   // Wall time of the whole solve (problem setup included) and the parts of it

@@ -1,3 +1,42 @@
-// Reading CARMEN laser logs (plain or gzip'd): laser scans, raw odometry and
-// the reference poses that corrected logs carry.
+// Reading CARMEN laser logs (plain or gzip'd): laser scans, the raw odometry
+// between them, and the reference poses that corrected logs carry. The
+// front-end sees only ranges and raw odometry; reference poses are for
+// evaluation alone.
 #pragma once
+
+#include <string>
+#include <vector>
+
+#include "backend/geometry.h"
+
+namespace cairn::frontend {
+
+struct LaserScan {
+  double timestamp = 0;
+  std::string timestamp_text;  // as the log writes it, for TUM output
+  double angle_min = 0;        // bearing of the first beam, robot frame
+  double angle_increment = 0;
+  std::vector<float> ranges;
+  // Raw odometry from the previous scan's pose to this one (identity for the
+  // first scan of the log).
+  SE2 odometry_increment;
+  // The pose the log carries on the scan line (a reference trajectory in the
+  // corrected logs).
+  SE2 reference;
+  SE2 laser_offset;  // laser in the robot frame (ROBOTLASER1 only)
+  size_t line = 0;
+};
+
+struct CarmenLog {
+  std::string path;
+  std::vector<LaserScan> scans;
+  // The largest reading in the log: by convention it means "no return".
+  double max_reading = 0;
+};
+
+// Reads FLASER, ROBOTLASER1, ODOM and PARAM lines; other lines are ignored.
+// Throws cairn::ParseError ("FILE:LINE: message") on a malformed line and
+// std::runtime_error when the file cannot be read.
+CarmenLog ReadCarmenLog(const std::string& path);
+
+}  // namespace cairn::frontend

@@ -7,6 +7,7 @@
 #include "backend/ceres_solver.h"
 #include "backend/chi2.h"
 #include "backend/covariance.h"
+#include "backend/graph_gauss_newton.h"
 #include "backend/graph_io.h"
 #include "backend/solve_result.h"
 #include "backend/svg_plot.h"
@@ -45,20 +46,26 @@ std::string CovarianceJson(const std::vector<int64_t>& ids, const std::vector<Ei
 
 int RunOptimize(int argc, char** argv) {
   std::string in, out, solver = "ceres", robust = "none", method = "lm", sparse = "auto";
-  std::string report, plot;
-  bool quiet = false, strict = false;
+  std::string report, plot, linear_solver = "auto";
+  bool quiet = false, strict = false, no_jacobi = false;
+  // The common options (SolverOptions) live in the Ceres struct; --solver gn
+  // copies them over.
   CeresOptions o;
+  double gn_damping = GaussNewtonOptions().damping;
   ArgParser args(
-      "optimize IN -o OUT.g2o [--solver ceres] [--robust huber:D|cauchy:D] [options]",
+      "optimize IN -o OUT.g2o [--solver ceres|gn] [--robust huber:D|cauchy:D] [options]",
       "Optimises a g2o or TORO pose graph from the estimate in the file and writes the\n"
       "result as g2o (to a temporary file, renamed when complete). Vertices marked\n"
       "FIX stay put; when none is and no prior anchors the graph, the lowest-id\n"
       "vertex is held. Progress goes to stderr, one line per iteration (chi2 is\n"
-      "g2o's: twice Ceres's cost, robustified when --robust is set).");
+      "g2o's: twice Ceres's cost, robustified when --robust is set). Options marked\n"
+      "ceres: or gn: apply to that solver only.");
   args.Positional("IN", &in, "a .g2o or TORO .graph file");
   args.Option("output", &out, "OUT.g2o", "where to write the optimised graph (g2o)");
   args.Alias("-o", "output");
-  args.Option("solver", &solver, "NAME", "ceres (Ceres's trust-region solver)");
+  args.Option("solver", &solver, "NAME",
+              "ceres (Ceres's trust-region solver) or gn (cairn's own Gauss-Newton, "
+              "damped only when a step fails)");
   args.Option("method", &method, "lm|dogleg",
               "ceres: Levenberg-Marquardt or Powell's dogleg trust region");
   args.Option("sparse", &sparse, "LIB",
@@ -77,6 +84,16 @@ int RunOptimize(int argc, char** argv) {
               "stop when the step is this small relative to the estimate");
   args.Option("initial-radius", &o.initial_trust_region_radius, "R",
               "ceres: first trust-region radius (large: start close to Gauss-Newton)");
+  args.Option("min-lm-diagonal", &o.min_lm_diagonal, "D",
+              "ceres: lower bound on Levenberg-Marquardt's diagonal damping");
+  args.Flag("postordering", &o.use_postordering,
+            "ceres: let the sparse Cholesky order the normal matrix itself (AMD with "
+            "postordering) instead of pre-permuting the Jacobian");
+  args.Flag("no-jacobi-scaling", &no_jacobi, "ceres: do not scale columns of the Jacobian");
+  args.Option("linear-solver", &linear_solver, "NAME",
+              "gn: auto, supernodal, simplicial, cholmod-auto or eigen");
+  args.Option("gn-damping", &gn_damping, "LAMBDA",
+              "gn: first damping tried when a Gauss-Newton step raises chi2");
   args.Option("report", &report, "FILE.json",
               "write a JSON report: initial_chi2, final_chi2, iterations, time_s, "
               "termination, timings and the per-iteration trace");
@@ -94,12 +111,13 @@ int RunOptimize(int argc, char** argv) {
     PrintError("optimize needs an output file (-o OUT.g2o)");
     return 2;
   }
-  if (solver != "ceres") {
-    PrintError(solver == "gn" ? "--solver gn is not in this build yet; use --solver ceres"
-                              : "unknown solver '" + solver + "' (expected ceres)");
+  if (solver != "ceres" && solver != "gn") {
+    PrintError("unknown solver '" + solver + "' (expected ceres or gn)");
     return 2;
   }
+  GaussNewtonOptions gn;
   try {
+    gn.linear_solver = ParseCholeskyKind(linear_solver);
     o.loop_closure_loss = ParseRobustLoss(robust);
     o.method = ParseCeresMethod(method);
     o.sparse_library = ParseSparseLibrary(sparse);
@@ -112,6 +130,9 @@ int RunOptimize(int argc, char** argv) {
     return 2;
   }
   o.verbose = !quiet;
+  o.jacobi_scaling = !no_jacobi;
+  static_cast<SolverOptions&>(gn) = o;
+  gn.damping = gn_damping;
 
   std::vector<int64_t> covariance_of;
   if (!covariance_ids.empty()) {
@@ -133,11 +154,13 @@ int RunOptimize(int argc, char** argv) {
   // Only copied when asked for: the "before" panel of the plot.
   const PoseGraph before = plot.empty() ? PoseGraph(graph.dimension()) : graph;
 
-  const SolveResult result = SolveWithCeres(graph, o);
-  WriteFileAtomically(out, [&](std::ostream& os) { WriteG2o(graph, os); });
+  const SolveResult result = solver == "gn" ? SolveGaussNewton(graph, gn) : SolveWithCeres(graph, o);
+  // A failed solve leaves no output behind (the report still says why).
+  if (result.usable) WriteFileAtomically(out, [&](std::ostream& os) { WriteG2o(graph, os); });
 
   std::vector<Eigen::MatrixXd> covariances;
-  if (!covariance_of.empty()) {
+  // Not from a failed solve: the estimate is no optimum.
+  if (!covariance_of.empty() && result.usable) {
     // From the solver that found the optimum (Ceres's ceres::Covariance, or
     // the Gauss-Newton factorisation); tests/test_covariance.cpp checks that
     // the two agree.
@@ -169,8 +192,8 @@ int RunOptimize(int argc, char** argv) {
         {"edges", std::to_string(graph.edges().size())},
         {"loop_closures", std::to_string(graph.CountEdges(EdgeKind::kLoopClosure))},
         {"robust", ToString(o.loop_closure_loss)},
-        {"method", method},
-        {"sparse", sparse},
+        {"method", solver == "gn" ? "gauss-newton" : method},
+        {"sparse", solver == "gn" ? linear_solver : sparse},
         {"read_time_s", Number(read_time)},
     };
     std::ostringstream json;
@@ -197,7 +220,7 @@ int RunOptimize(int argc, char** argv) {
                  result.termination.c_str());
   }
   if (!result.usable) {
-    PrintError("the solver failed: " + result.message);
+    PrintError("the solver failed, " + out + " not written: " + result.message);
     return 1;
   }
   return 0;
@@ -205,6 +228,7 @@ int RunOptimize(int argc, char** argv) {
 
 }  // namespace
 
-CAIRN_COMMAND("optimize", "optimise a pose graph (Ceres) and write it as g2o", RunOptimize);
+CAIRN_COMMAND("optimize", "optimise a pose graph (Ceres or Gauss-Newton), write it as g2o",
+              RunOptimize);
 
 }  // namespace cairn::tools

@@ -1,0 +1,187 @@
+#include "frontend/carmen_log.h"
+
+#include <zlib.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+#include "backend/graph_io.h"
+
+namespace cairn::frontend {
+namespace {
+
+// Fields are separated by any run of blanks.
+std::vector<std::string> Tokens(const std::string& line) {
+  std::vector<std::string> out;
+  std::istringstream is(line);
+  std::string t;
+  while (is >> t) out.push_back(t);
+  return out;
+}
+
+class LineParser {
+ public:
+  LineParser(const std::string& file, size_t line, std::vector<std::string> tokens)
+      : file_(file), line_(line), t_(std::move(tokens)) {}
+
+  size_t size() const { return t_.size(); }
+  const std::string& Text(size_t i) const {
+    Need(i + 1);
+    return t_[i];
+  }
+  void Need(size_t n) const {
+    if (t_.size() < n)
+      Fail(t_[0] + " line has " + std::to_string(t_.size()) + " fields, needs at least " +
+           std::to_string(n));
+  }
+  double Double(size_t i, const char* what) const {
+    Need(i + 1);
+    errno = 0;
+    char* end = nullptr;
+    const double v = std::strtod(t_[i].c_str(), &end);
+    if (*end != '\0' || errno == ERANGE || !std::isfinite(v))
+      Fail(std::string("bad ") + what + " '" + t_[i] + "'");
+    return v;
+  }
+  int Count(size_t i, const char* what, int max) const {
+    const double v = Double(i, what);
+    if (v < 0 || v > max || v != std::floor(v))
+      Fail(std::string("bad ") + what + " '" + t_[i] + "'");
+    return static_cast<int>(v);
+  }
+  [[noreturn]] void Fail(const std::string& message) const {
+    throw ParseError(file_, line_, message);
+  }
+
+ private:
+  const std::string& file_;
+  size_t line_;
+  std::vector<std::string> t_;
+};
+
+// gzopen reads plain files transparently, so one path serves both.
+class LineReader {
+ public:
+  explicit LineReader(const std::string& path) : file_(gzopen(path.c_str(), "rb")) {
+    if (!file_) throw std::runtime_error(path + ": cannot open: " + std::strerror(errno));
+    gzbuffer(file_, 1 << 17);
+  }
+  ~LineReader() { gzclose(file_); }
+  LineReader(const LineReader&) = delete;
+  LineReader& operator=(const LineReader&) = delete;
+
+  bool Next(std::string* line) {
+    line->clear();
+    char buf[8192];
+    while (gzgets(file_, buf, sizeof buf)) {
+      line->append(buf);
+      if (!line->empty() && line->back() == '\n') {
+        line->pop_back();
+        if (!line->empty() && line->back() == '\r') line->pop_back();
+        return true;
+      }
+    }
+    int err = 0;
+    const char* msg = gzerror(file_, &err);
+    if (err != Z_OK && err != Z_STREAM_END) throw std::runtime_error(std::string("read error: ") + msg);
+    return !line->empty();
+  }
+
+ private:
+  gzFile file_;
+};
+
+}  // namespace
+
+CarmenLog ReadCarmenLog(const std::string& path) {
+  CarmenLog log;
+  log.path = path;
+  LineReader reader(path);
+  std::string text;
+  size_t line_no = 0;
+  // The ODOM chain restarts at each scan's pose; the last ODOM before a scan
+  // gives the raw motion since the previous one.
+  bool have_prev_scan = false, have_odom = false;
+  SE2 prev_scan_pose, last_odom;
+  while (reader.Next(&text)) {
+    ++line_no;
+    const size_t first = text.find_first_not_of(" \t");
+    if (first == std::string::npos || text[first] == '#') continue;
+    const size_t end = text.find_first_of(" \t", first);
+    const std::string tag = text.substr(first, end == std::string::npos ? end : end - first);
+    if (tag != "FLASER" && tag != "ROBOTLASER1" && tag != "ODOM" && tag != "PARAM") continue;
+    LineParser p(path, line_no, Tokens(text));
+    if (tag == "PARAM") {
+      p.Need(3);
+      continue;
+    }
+    if (tag == "ODOM") {
+      p.Need(10);
+      last_odom = SE2(p.Double(1, "x"), p.Double(2, "y"), p.Double(3, "theta"));
+      p.Double(7, "timestamp");
+      have_odom = true;
+      continue;
+    }
+    LaserScan scan;
+    scan.line = line_no;
+    size_t k = 1;
+    if (tag == "FLASER") {
+      const int n = p.Count(1, "number of readings", 100000);
+      if (n < 2) p.Fail("a scan needs at least 2 readings");
+      p.Need(2 + n + 9);
+      scan.ranges.resize(n);
+      for (int i = 0; i < n; ++i) scan.ranges[i] = static_cast<float>(p.Double(2 + i, "range"));
+      k = 2 + n;
+      // 180/181 beams over 180 degrees, 360/361 over 180 degrees too.
+      const double fov = M_PI;
+      const bool closed = (n % 2) == 1;
+      scan.angle_increment = fov / (closed ? n - 1 : n);
+      scan.angle_min = -M_PI / 2;
+      scan.reference = SE2(p.Double(k, "x"), p.Double(k + 1, "y"), p.Double(k + 2, "theta"));
+      k += 6;
+    } else {  // ROBOTLASER1
+      p.Need(10);
+      const double start = p.Double(2, "start angle");
+      p.Double(3, "field of view");
+      const double res = p.Double(4, "angular resolution");
+      p.Double(5, "maximum range");
+      const int n = p.Count(8, "number of readings", 100000);
+      if (n < 2) p.Fail("a scan needs at least 2 readings");
+      p.Need(9 + n + 1);
+      scan.ranges.resize(n);
+      for (int i = 0; i < n; ++i) scan.ranges[i] = static_cast<float>(p.Double(9 + i, "range"));
+      k = 9 + n;
+      const int nr = p.Count(k, "number of remissions", 100000);
+      k += 1 + nr;
+      p.Need(k + 14);
+      const SE2 laser(p.Double(k, "x"), p.Double(k + 1, "y"), p.Double(k + 2, "theta"));
+      scan.reference = SE2(p.Double(k + 3, "x"), p.Double(k + 4, "y"), p.Double(k + 5, "theta"));
+      scan.laser_offset = scan.reference.Between(laser);
+      scan.angle_min = start;
+      scan.angle_increment = res;
+      k += 11;
+    }
+    p.Need(k + 1);
+    scan.timestamp = p.Double(k, "timestamp");
+    scan.timestamp_text = p.Text(k);
+    for (float r : scan.ranges) {
+      if (r < 0) p.Fail("negative range");
+      log.max_reading = std::max(log.max_reading, static_cast<double>(r));
+    }
+    if (have_prev_scan && have_odom) scan.odometry_increment = prev_scan_pose.Between(last_odom);
+    prev_scan_pose = scan.reference;
+    // Until an ODOM line follows, the robot has not moved since this scan.
+    last_odom = scan.reference;
+    have_prev_scan = true;
+    have_odom = true;
+    log.scans.push_back(std::move(scan));
+  }
+  return log;
+}
+
+}  // namespace cairn::frontend

@@ -1,0 +1,90 @@
+// The front-end proper: from a laser log to a pose graph. Scans are tracked
+// against a local map of recent keyframes (correlative search, then ICP),
+// keyframes become graph nodes, loop closures are searched near the current
+// estimate and verified by scan matching, and the graph is optimised as it
+// grows. Then the occupancy grid from the optimised poses.
+#pragma once
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "backend/pose_graph.h"
+#include "frontend/carmen_log.h"
+#include "frontend/occupancy_grid.h"
+#include "frontend/optimize.h"
+#include "frontend/scan_matcher.h"
+
+namespace cairn::frontend {
+
+struct MapperOptions {
+  double keyframe_distance = 0.5;   // metres travelled
+  double keyframe_angle = 0.436;    // radians turned (25 degrees)
+  double min_range = 0.05;
+  double max_match_range = 60.0;    // longer beams are too sparse to match well
+  // Readings at or above this are "no return"; 0 takes the log's largest.
+  double max_range = 0;
+  int local_map_keyframes = 10;
+  double track_linear_window = 0.5;
+  double track_angular_window = 0.35;   // 20 degrees
+  double track_min_inliers = 0.4;       // below: trust the odometry instead
+  double track_max_slide = 0.15;        // metres ICP may move the search's pose
+
+  double loop_min_travel = 8.0;         // metres of path between the two ends
+  double loop_radius = 1.0;             // candidate radius at zero path...
+  double loop_radius_growth = 0.02;     // ...growing per metre of path since...
+  double loop_max_radius = 3.0;         // ...up to this
+  double loop_angular_window = 0.35;    // 20 degrees
+  int loop_max_candidates = 2;          // per keyframe
+  int loop_submap_neighbours = 3;       // keyframes each side of the candidate
+  int loop_query_keyframes = 3;         // the current one and the previous ones
+  double loop_min_inliers = 0.6;
+  double loop_max_residual = 0.04;
+  double loop_min_score = 0.4;
+  // Ambiguity test: the best pose at least loop_runner_up_distance from the
+  // winner must score below loop_max_runner_up times the winner's score.
+  double loop_runner_up_distance = 0.5;
+  double loop_max_runner_up = 0.9;
+
+  int optimize_every = 5;  // keyframes between solves triggered by loop closures
+  OptimizeOptions optimize;
+};
+
+struct KeyFrame {
+  size_t scan = 0;
+  double path = 0;   // metres travelled (tracked) from the start
+  PointCloud cloud;  // robot frame
+};
+
+struct MapperStats {
+  size_t loop_candidates = 0, loop_accepted = 0, optimizations = 0, tracking_failures = 0;
+  double odometry_scale = 1;  // the factor learned for the odometry's translation
+  double seconds_matching = 0, seconds_local_map = 0, seconds_loops = 0, seconds_optimizing = 0;
+};
+
+struct MapResult {
+  PoseGraph graph{2};               // vertex k is keyframe k
+  std::vector<KeyFrame> keyframes;
+  std::vector<SE2> scan_poses;      // every scan, from its keyframe's optimised pose
+  std::vector<SE2> dead_reckoning;  // every scan, raw odometry chained from the origin
+  double max_range = 0;
+  MapperStats stats;
+};
+
+// `progress` (may be null) gets a line per loop closure accepted.
+MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& options,
+                         std::ostream* progress = nullptr);
+
+// The grid from every scan at its pose (beams at max_range only clear).
+OccupancyGrid BuildOccupancyGrid(const CarmenLog& log, const std::vector<SE2>& poses,
+                                 double max_range, const GridOptions& options);
+
+// Verifies a loop-closure candidate: matches `query` (robot frame) against
+// `submap` (world frame) from `guess`. Returns true and the world pose of
+// the query with its information (in the query's frame) if the fitness
+// tests pass.
+bool VerifyLoopClosure(const PointCloud& submap, const PointCloud& query, const SE2& guess,
+                       double linear_window, const MapperOptions& options, SE2* pose,
+                       Eigen::Matrix3d* information, IcpResult* icp_out = nullptr);
+
+}  // namespace cairn::frontend

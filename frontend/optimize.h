@@ -1,0 +1,28 @@
+// Pose-graph optimisation for the front-end, behind one call on the shared
+// back-end (backend/ceres_solver.h, backend/graph_gauss_newton.h). Loop
+// closures get a robust loss; odometry edges do not.
+#pragma once
+
+#include <string>
+
+#include "backend/pose_graph.h"
+
+namespace cairn::frontend {
+
+struct OptimizeOptions {
+  std::string solver = "ceres";  // "ceres" (Levenberg-Marquardt) or "gn" (Gauss-Newton, IRLS)
+  int max_iterations = 50;
+  // Cauchy scale on loop closures, in units of the edge's standard deviation.
+  double robust_scale = 2.0;
+};
+
+struct OptimizeSummary {
+  int iterations = 0;
+  double initial_chi2 = 0, final_chi2 = 0;  // g2o's, without the robust loss
+};
+
+// Optimises the 2D graph in place. With no fixed vertex, the first one is
+// held fixed (the gauge).
+OptimizeSummary OptimizeGraph(PoseGraph& graph, const OptimizeOptions& options = {});
+
+}  // namespace cairn::frontend

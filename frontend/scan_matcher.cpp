@@ -1,0 +1,327 @@
+#include "frontend/scan_matcher.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <unordered_set>
+
+namespace cairn::frontend {
+
+void PointCloud::Append(const PointCloud& other, const SE2& pose) {
+  const Eigen::Matrix2d R = pose.rotation();
+  const Eigen::Vector2d t = pose.translation();
+  points.reserve(points.size() + other.size());
+  for (size_t i = 0; i < other.size(); ++i) {
+    points.push_back(R * other.points[i] + t);
+    normals.push_back(R * other.normals[i]);
+    has_normal.push_back(other.has_normal[i]);
+  }
+}
+
+PointCloud ScanToCloud(const LaserScan& scan, double min_range, double max_range) {
+  const size_t n = scan.ranges.size();
+  std::vector<Eigen::Vector2d> pts(n);
+  std::vector<char> valid(n, 0);
+  const Eigen::Vector2d sensor = scan.laser_offset.translation();
+  for (size_t i = 0; i < n; ++i) {
+    const double r = scan.ranges[i];
+    if (!(r > min_range && r < max_range)) continue;
+    const double a = scan.angle_min + scan.angle_increment * i;
+    pts[i] = scan.laser_offset * Eigen::Vector2d(r * std::cos(a), r * std::sin(a));
+    valid[i] = 1;
+  }
+  PointCloud out;
+  for (size_t i = 0; i < n; ++i) {
+    if (!valid[i]) continue;
+    // Neighbours along the scan that lie on the same surface: the gap
+    // allowed grows with range, since beams spread apart.
+    const double r = scan.ranges[i];
+    const double gap = std::max(0.1, 3.0 * r * scan.angle_increment);
+    Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+    std::vector<Eigen::Vector2d> nb;
+    for (int k = -3; k <= 3; ++k) {
+      const long j = static_cast<long>(i) + k;
+      if (j < 0 || j >= static_cast<long>(n) || !valid[j]) continue;
+      if ((pts[j] - pts[i]).norm() > gap * std::max(1, std::abs(k))) continue;
+      nb.push_back(pts[j]);
+      mean += pts[j];
+    }
+    Eigen::Vector2d normal = Eigen::Vector2d::Zero();
+    bool ok = false;
+    if (nb.size() >= 4) {
+      mean /= nb.size();
+      Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+      for (const auto& p : nb) cov += (p - mean) * (p - mean).transpose();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(cov);
+      // A line, not a blob: the spread across must be small beside the spread along.
+      if (es.eigenvalues()[0] < 0.1 * es.eigenvalues()[1]) {
+        normal = es.eigenvectors().col(0);
+        if (normal.dot(sensor - pts[i]) < 0) normal = -normal;
+        ok = true;
+      }
+    }
+    out.points.push_back(pts[i]);
+    out.normals.push_back(normal);
+    out.has_normal.push_back(ok);
+  }
+  return out;
+}
+
+PointCloud Downsample(const PointCloud& cloud, double cell) {
+  PointCloud out;
+  std::unordered_set<long long> seen;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const long long cx = static_cast<long long>(std::floor(cloud.points[i].x() / cell));
+    const long long cy = static_cast<long long>(std::floor(cloud.points[i].y() / cell));
+    if (!seen.insert(cx * 73856093LL ^ cy * 19349663LL).second) continue;
+    out.points.push_back(cloud.points[i]);
+    out.normals.push_back(cloud.normals[i]);
+    out.has_normal.push_back(cloud.has_normal[i]);
+  }
+  return out;
+}
+
+MatchMap::MatchMap(const PointCloud& world, double resolution, double radius, double sigma)
+    : cloud_(world), res_(resolution) {
+  if (world.points.empty()) {
+    origin_ = Eigen::Vector2d::Zero();
+    return;
+  }
+  Eigen::Vector2d lo = world.points[0], hi = world.points[0];
+  for (const auto& p : world.points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const double margin = radius + 2 * res_;
+  origin_ = lo - Eigen::Vector2d(margin, margin);
+  w_ = static_cast<int>(std::ceil((hi.x() - lo.x() + 2 * margin) / res_)) + 1;
+  h_ = static_cast<int>(std::ceil((hi.y() - lo.y() + 2 * margin) / res_)) + 1;
+  bw_ = (w_ + kBlockSide - 1) / kBlockSide;
+  const int bh = (h_ + kBlockSide - 1) / kBlockSide;
+  dir_.assign(static_cast<size_t>(bw_) * bh, -1);
+  int blocks = 0;
+  auto slot = [&](int x, int y) {
+    int& b = dir_[static_cast<size_t>(y >> kBlockBits) * bw_ + (x >> kBlockBits)];
+    if (b < 0) {
+      b = blocks++;
+      like_.resize(like_.size() + kBlockSide * kBlockSide, 0.f);
+      nearest_.resize(nearest_.size() + kBlockSide * kBlockSide, -1);
+    }
+    return Slot(b, x, y);
+  };
+  // The likelihood falls with distance, so the highest one seen in a cell
+  // also names its nearest point: one pass, no per-cell distance array.
+  const int rc = static_cast<int>(std::ceil(radius / res_));
+  const double r2 = radius * radius;
+  const double inv = 1.0 / (2 * sigma * sigma);
+  // The Gaussian separates: exp(-(dx^2 + dy^2)) = exp(-dx^2) exp(-dy^2), so
+  // a point costs 2 (2 rc + 1) exponentials rather than one per cell.
+  std::vector<double> ex(2 * rc + 1), ey(2 * rc + 1), dx2(2 * rc + 1);
+  for (size_t k = 0; k < world.size(); ++k) {
+    const Eigen::Vector2d c = (world.points[k] - origin_) / res_;
+    const int cx = static_cast<int>(std::floor(c.x())), cy = static_cast<int>(std::floor(c.y()));
+    for (int o = -rc; o <= rc; ++o) {
+      const double dx = (cx + o + 0.5 - c.x()) * res_, dy = (cy + o + 0.5 - c.y()) * res_;
+      dx2[o + rc] = dx * dx;
+      ex[o + rc] = std::exp(-dx * dx * inv);
+      ey[o + rc] = std::exp(-dy * dy * inv);
+    }
+    for (int y = std::max(0, cy - rc); y <= std::min(h_ - 1, cy + rc); ++y) {
+      const double dy = (y + 0.5 - c.y()) * res_;
+      for (int x = std::max(0, cx - rc); x <= std::min(w_ - 1, cx + rc); ++x) {
+        const double d2 = dx2[x - cx + rc] + dy * dy;
+        if (d2 >= r2) continue;
+        const size_t i = slot(x, y);
+        // Strictly above zero even far out, so that any point in range wins
+        // over an empty cell.
+        const float l = std::max(static_cast<float>(ex[x - cx + rc] * ey[y - cy + rc]), 1e-30f);
+        if (l > like_[i]) {
+          like_[i] = l;
+          nearest_[i] = static_cast<int>(k);
+        }
+      }
+    }
+  }
+}
+
+int MatchMap::Nearest(const Eigen::Vector2d& p) const {
+  const int cx = static_cast<int>(std::floor((p.x() - origin_.x()) / res_));
+  const int cy = static_cast<int>(std::floor((p.y() - origin_.y()) / res_));
+  if (cx < 0 || cy < 0 || cx >= w_ || cy >= h_) return -1;
+  const int b = dir_[static_cast<size_t>(cy >> kBlockBits) * bw_ + (cx >> kBlockBits)];
+  return b < 0 ? -1 : nearest_[Slot(b, cx, cy)];
+}
+
+namespace {
+
+struct Candidate {
+  double score = -1;
+  double theta = 0;
+  Eigen::Vector2d t = Eigen::Vector2d::Zero();
+};
+
+// Scores every (theta, dx, dy) with theta in `angles` and translations on
+// the map's grid within +-n cells of `center`.
+void Search(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
+            const std::vector<double>& angles, const Eigen::Vector2d& center, int n,
+            const SE2& guess, const CorrelativeOptions& o, Candidate* best,
+            std::vector<Candidate>* all = nullptr) {
+  const double res = map.resolution();
+  std::vector<int> cx(scan.size()), cy(scan.size());
+  const double inv_n = 1.0 / std::max<size_t>(1, scan.size());
+  std::vector<double> sums(static_cast<size_t>(2 * n + 1) * (2 * n + 1));
+  for (double theta : angles) {
+    const double c = std::cos(theta), s = std::sin(theta);
+    for (size_t i = 0; i < scan.size(); ++i) {
+      const Eigen::Vector2d q(c * scan[i].x() - s * scan[i].y() + center.x() - map.origin().x(),
+                              s * scan[i].x() + c * scan[i].y() + center.y() - map.origin().y());
+      cx[i] = static_cast<int>(std::floor(q.x() / res));
+      cy[i] = static_cast<int>(std::floor(q.y() / res));
+    }
+    std::fill(sums.begin(), sums.end(), 0.0);
+    for (int dy = -n; dy <= n; ++dy)
+      for (int dx = -n; dx <= n; ++dx) {
+        double sum = 0;
+        for (size_t i = 0; i < scan.size(); ++i) sum += map.LikelihoodAtCell(cx[i] + dx, cy[i] + dy);
+        sums[static_cast<size_t>(dy + n) * (2 * n + 1) + dx + n] = sum;
+      }
+    const double da = NormalizeAngle(theta - guess.theta()) / std::max(o.angular_window, 1e-6);
+    for (int dy = -n; dy <= n; ++dy)
+      for (int dx = -n; dx <= n; ++dx) {
+        const Eigen::Vector2d t = center + Eigen::Vector2d(dx * res, dy * res);
+        const double dl = (t - guess.translation()).norm() / std::max(o.linear_window, 1e-6);
+        const double score = sums[static_cast<size_t>(dy + n) * (2 * n + 1) + dx + n] * inv_n *
+                             (1 - o.distance_penalty * std::min(1.0, dl * dl)) *
+                             (1 - o.distance_penalty * std::min(1.0, da * da));
+        if (score > best->score) *best = {score, theta, t};
+        if (all) all->push_back({score, theta, t});
+      }
+  }
+}
+
+}  // namespace
+
+CorrelativeResult CorrelativeMatch(const MatchMap& coarse, const MatchMap& fine,
+                                   const std::vector<Eigen::Vector2d>& scan, const SE2& guess,
+                                   const CorrelativeOptions& o) {
+  Candidate best;
+  std::vector<double> angles;
+  const double coarse_step = 2 * o.angular_step;
+  const int na = static_cast<int>(std::ceil(o.angular_window / coarse_step));
+  for (int k = -na; k <= na; ++k) angles.push_back(guess.theta() + k * coarse_step);
+  const int n = static_cast<int>(std::ceil(o.linear_window / coarse.resolution()));
+  std::vector<Candidate> all;
+  Search(coarse, scan, angles, guess.translation(), n, guess, o, &best,
+         o.runner_up_distance > 0 ? &all : nullptr);
+  double runner_up = 0;
+  for (const Candidate& c : all)
+    if ((c.t - best.t).norm() > o.runner_up_distance) runner_up = std::max(runner_up, c.score);
+  angles.clear();
+  for (int k = -2; k <= 2; ++k) angles.push_back(best.theta + k * 0.5 * o.angular_step);
+  const int nf = static_cast<int>(std::ceil(coarse.resolution() / fine.resolution()));
+  Candidate fine_best;
+  Search(fine, scan, angles, best.t, nf, guess, o, &fine_best);
+  return {SE2(fine_best.t.x(), fine_best.t.y(), fine_best.theta), fine_best.score,
+          best.score > 0 ? runner_up / best.score : 1.0};
+}
+
+IcpResult IcpMatch(const MatchMap& map, const PointCloud& scan, const SE2& guess,
+                   const IcpOptions& o) {
+  IcpResult out;
+  double x = guess.x(), y = guess.y(), th = guess.theta();
+  const PointCloud& ref = map.cloud();
+  for (int it = 0; it < o.max_iterations; ++it) {
+    const double frac = std::min(1.0, it / (0.5 * o.max_iterations));
+    const double corr = o.max_correspondence + frac * (o.min_correspondence - o.max_correspondence);
+    const double c = std::cos(th), s = std::sin(th);
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    int used = 0;
+    for (size_t i = 0; i < scan.size(); ++i) {
+      const Eigen::Vector2d rp(c * scan.points[i].x() - s * scan.points[i].y(),
+                               s * scan.points[i].x() + c * scan.points[i].y());
+      const Eigen::Vector2d q = rp + Eigen::Vector2d(x, y);
+      const int j = map.Nearest(q);
+      if (j < 0 || !ref.has_normal[j]) continue;
+      const Eigen::Vector2d d = q - ref.points[j];
+      if (d.norm() > corr) continue;
+      const Eigen::Vector2d& nrm = ref.normals[j];
+      const double r = nrm.dot(d);
+      const Eigen::Vector3d J(nrm.x(), nrm.y(), nrm.dot(Eigen::Vector2d(-rp.y(), rp.x())));
+      const double k = 0.05;  // Huber: far residuals are likely wrong pairs
+      const double w = std::abs(r) < k ? 1.0 : k / std::abs(r);
+      H += w * J * J.transpose();
+      g += w * J * r;
+      ++used;
+    }
+    if (used < 10) break;
+    // Solve in H's eigenbasis and leave unobservable directions (a
+    // corridor's axis) where the guess put them, rather than let noise
+    // slide the pose along them.
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(H);
+    const Eigen::Vector3d lam = es.eigenvalues();
+    const Eigen::Vector3d proj = es.eigenvectors().transpose() * g;
+    Eigen::Vector3d step = Eigen::Vector3d::Zero();
+    for (int k = 0; k < 3; ++k)
+      if (lam[k] > 1e-3 * lam[2] && lam[k] > 1e-9) step[k] = -proj[k] / lam[k];
+    const Eigen::Vector3d delta = es.eigenvectors() * step;
+    x += delta[0];
+    y += delta[1];
+    th = NormalizeAngle(th + delta[2]);
+    if (frac >= 1.0 && delta.head<2>().norm() < 1e-4 && std::abs(delta[2]) < 1e-4) {
+      out.converged = true;
+      break;
+    }
+    if (it + 1 == o.max_iterations) out.converged = true;
+  }
+  out.pose = SE2(x, y, th);
+
+  // Fitness and the Hessian at the solution, with a fixed inlier radius.
+  const double c = std::cos(th), s = std::sin(th);
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  double sum_r = 0, sum_r2 = 0;
+  int with_normal = 0;
+  for (size_t i = 0; i < scan.size(); ++i) {
+    const Eigen::Vector2d rp(c * scan.points[i].x() - s * scan.points[i].y(),
+                             s * scan.points[i].x() + c * scan.points[i].y());
+    const Eigen::Vector2d q = rp + Eigen::Vector2d(x, y);
+    const int j = map.Nearest(q);
+    if (j < 0) continue;
+    const Eigen::Vector2d d = q - ref.points[j];
+    if (d.norm() > o.inlier_distance) continue;
+    ++out.inliers;
+    if (!ref.has_normal[j]) continue;
+    const Eigen::Vector2d& nrm = ref.normals[j];
+    const double r = nrm.dot(d);
+    const Eigen::Vector3d J(nrm.x(), nrm.y(), nrm.dot(Eigen::Vector2d(-rp.y(), rp.x())));
+    H += J * J.transpose();
+    sum_r += std::abs(r);
+    sum_r2 += r * r;
+    ++with_normal;
+  }
+  out.inlier_fraction = scan.size() ? static_cast<double>(out.inliers) / scan.size() : 0;
+  out.mean_residual = with_normal ? sum_r / with_normal : 1e9;
+  if (with_normal < 10) {
+    out.converged = false;
+    return out;
+  }
+  const double sigma2 = std::max(sum_r2 / std::max(1, with_normal - 3), 0.01 * 0.01);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(H);
+  Eigen::Vector3d lam = es.eigenvalues();
+  // Invert with the weak directions (a corridor's axis) capped at max_sigma.
+  const double max_var = o.max_sigma * o.max_sigma;
+  Eigen::Vector3d var;
+  for (int k = 0; k < 3; ++k)
+    var[k] = std::min(max_var, o.covariance_inflation * sigma2 / std::max(lam[k], 1e-12));
+  Eigen::Matrix3d cov = es.eigenvectors() * var.asDiagonal() * es.eigenvectors().transpose();
+  cov(0, 0) += o.min_sigma_xy * o.min_sigma_xy;
+  cov(1, 1) += o.min_sigma_xy * o.min_sigma_xy;
+  cov(2, 2) += o.min_sigma_theta * o.min_sigma_theta;
+  out.information = cov.inverse();
+  out.information = 0.5 * (out.information + out.information.transpose()).eval();
+  return out;
+}
+
+}  // namespace cairn::frontend

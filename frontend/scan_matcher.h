@@ -1,0 +1,121 @@
+// 2D scan matching: a coarse-to-fine correlative search over a likelihood
+// field, then point-to-line ICP, with an information matrix estimated from
+// the ICP Hessian and a fitness measure for accepting loop closures.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "backend/geometry.h"
+#include "frontend/carmen_log.h"
+
+namespace cairn::frontend {
+
+// Points in one frame, with unit normals where the neighbourhood allows one
+// (has_normal false on isolated points and depth discontinuities).
+struct PointCloud {
+  std::vector<Eigen::Vector2d> points;
+  std::vector<Eigen::Vector2d> normals;
+  std::vector<char> has_normal;
+
+  size_t size() const { return points.size(); }
+  void Append(const PointCloud& other, const SE2& pose);  // other seen from `pose`
+};
+
+// Endpoints of the beams shorter than `max_range` (and longer than
+// `min_range`), in the robot frame, with normals from neighbouring beams.
+PointCloud ScanToCloud(const LaserScan& scan, double min_range, double max_range);
+
+// One point per cell of size `cell` (the first seen), normals kept.
+PointCloud Downsample(const PointCloud& cloud, double cell);
+
+// A reference map for matching: a dense grid that stores, per cell, the
+// nearest reference point within `radius` (for ICP correspondences) and a
+// smooth likelihood of a hit (for the correlative search).
+class MatchMap {
+ public:
+  MatchMap(const PointCloud& world, double resolution, double radius, double sigma);
+
+  double resolution() const { return res_; }
+  // Likelihood in [0, 1] at a continuous cell coordinate.
+  float LikelihoodAtCell(int cx, int cy) const {
+    if (cx < 0 || cy < 0 || cx >= w_ || cy >= h_) return 0.f;
+    const int b = dir_[static_cast<size_t>(cy >> kBlockBits) * bw_ + (cx >> kBlockBits)];
+    return b < 0 ? 0.f : like_[Slot(b, cx, cy)];
+  }
+  // Index of the nearest reference point to p, or -1 beyond the radius.
+  int Nearest(const Eigen::Vector2d& p) const;
+  const PointCloud& cloud() const { return cloud_; }
+  Eigen::Vector2d origin() const { return origin_; }
+
+ private:
+  // Cells live in 16 x 16 blocks allocated where points are: a local map of
+  // long-range scans spans a large box but touches little of it.
+  static constexpr int kBlockBits = 4, kBlockSide = 1 << kBlockBits;
+  static size_t Slot(int block, int cx, int cy) {
+    return static_cast<size_t>(block) * kBlockSide * kBlockSide +
+           ((cy & (kBlockSide - 1)) << kBlockBits) + (cx & (kBlockSide - 1));
+  }
+
+  PointCloud cloud_;
+  double res_;
+  Eigen::Vector2d origin_;
+  int w_ = 0, h_ = 0, bw_ = 0;
+  std::vector<int> dir_;  // block index per block position, -1 if empty
+  std::vector<float> like_;
+  std::vector<int> nearest_;
+};
+
+struct CorrelativeOptions {
+  double linear_window = 0.3;   // +- metres around the guess
+  double angular_window = 0.17; // +- radians
+  double angular_step = 0.0087; // radians, at the fine level
+  // Gentle preference for the guess, so that a corridor's flat score does
+  // not let the estimate slide along it.
+  double distance_penalty = 0.1;
+  // When positive, also find the best coarse score at least this far (metres)
+  // from the winner: a close second means repeated structure.
+  double runner_up_distance = 0;
+};
+
+struct CorrelativeResult {
+  SE2 pose;
+  double score = 0;  // mean likelihood of the scan's points, in [0, 1]
+  // Coarse score of the best pose runner_up_distance away, over the best's
+  // (1 when not computed).
+  double runner_up_ratio = 1;
+};
+
+// Exhaustive search on `coarse` (step = its resolution, angular step x2),
+// then a local search on `fine` around the best coarse pose.
+CorrelativeResult CorrelativeMatch(const MatchMap& coarse, const MatchMap& fine,
+                                   const std::vector<Eigen::Vector2d>& scan, const SE2& guess,
+                                   const CorrelativeOptions& options);
+
+struct IcpOptions {
+  int max_iterations = 30;
+  double max_correspondence = 0.3;  // metres, first iterations
+  double min_correspondence = 0.1;  // metres, shrinks to this
+  double inlier_distance = 0.1;     // for the fitness figures
+  // Covariance = inflation * sigma^2 H^-1 + floor: neighbouring residuals of
+  // a scan are correlated, so the raw Hessian is overconfident.
+  double covariance_inflation = 20.0;
+  double min_sigma_xy = 0.01, min_sigma_theta = 0.003;
+  double max_sigma = 1.0;
+};
+
+struct IcpResult {
+  SE2 pose;
+  Eigen::Matrix3d information = Eigen::Matrix3d::Identity();
+  double inlier_fraction = 0;  // scan points with a reference point within inlier_distance
+  double mean_residual = 0;    // mean |point-to-line distance| over inliers, metres
+  int inliers = 0;
+  bool converged = false;
+};
+
+// Point-to-line ICP of `scan` (robot frame) onto `map` (world frame) from
+// `guess` (the robot's pose in the world).
+IcpResult IcpMatch(const MatchMap& map, const PointCloud& scan, const SE2& guess,
+                   const IcpOptions& options);
+
+}  // namespace cairn::frontend

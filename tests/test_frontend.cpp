@@ -1,0 +1,330 @@
+// Front-end units: CARMEN parsing, scan matching on a synthetic room,
+// loop-closure verification, the grid's beam update, image writing,
+// trajectory errors and the front-end's optimiser.
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "backend/graph_io.h"
+#include "frontend/carmen_log.h"
+#include "frontend/image_io.h"
+#include "frontend/mapper.h"
+#include "frontend/occupancy_grid.h"
+#include "frontend/optimize.h"
+#include "frontend/scan_matcher.h"
+#include "frontend/trajectory.h"
+
+namespace cairn::frontend {
+namespace {
+
+struct Segment {
+  Eigen::Vector2d a, b;
+};
+
+// A 10 x 7 m room with a pillar and a nook, so that no pose is ambiguous.
+std::vector<Segment> Room() {
+  std::vector<Eigen::Vector2d> outline = {{0, 0}, {10, 0}, {10, 4}, {8.5, 4}, {8.5, 7}, {0, 7}};
+  std::vector<Segment> walls;
+  for (size_t i = 0; i < outline.size(); ++i) walls.push_back({outline[i], outline[(i + 1) % outline.size()]});
+  const std::vector<Eigen::Vector2d> pillar = {{3, 2}, {3.6, 2}, {3.6, 2.8}, {3, 2.8}};
+  for (size_t i = 0; i < pillar.size(); ++i) walls.push_back({pillar[i], pillar[(i + 1) % pillar.size()]});
+  walls.push_back({{6, 5}, {7.5, 6}});
+  return walls;
+}
+
+// A long, featureless corridor: no place along it differs from another.
+std::vector<Segment> Corridor() {
+  return {{{-50, 0}, {50, 0}}, {{-50, 2}, {50, 2}}};
+}
+
+LaserScan Render(const std::vector<Segment>& walls, const SE2& pose, int beams = 361,
+                 double max_range = 30) {
+  LaserScan scan;
+  scan.angle_min = -M_PI / 2;
+  scan.angle_increment = M_PI / (beams - 1);
+  for (int i = 0; i < beams; ++i) {
+    const double a = pose.theta() + scan.angle_min + i * scan.angle_increment;
+    const Eigen::Vector2d o = pose.translation(), d(std::cos(a), std::sin(a));
+    double best = max_range;
+    for (const Segment& w : walls) {
+      const Eigen::Vector2d e = w.b - w.a;
+      const double den = d.x() * (-e.y()) - d.y() * (-e.x());
+      if (std::abs(den) < 1e-12) continue;
+      const Eigen::Vector2d r = w.a - o;
+      const double t = (r.x() * (-e.y()) - r.y() * (-e.x())) / den;
+      const double u = (d.x() * r.y() - d.y() * r.x()) / den;
+      if (t > 0 && u >= 0 && u <= 1) best = std::min(best, t);
+    }
+    scan.ranges.push_back(static_cast<float>(best));
+  }
+  return scan;
+}
+
+TEST(ScanMatcher, RecoversKnownTransformInSyntheticRoom) {
+  const auto room = Room();
+  const SE2 a(2.0, 1.5, 0.3), b(2.6, 1.9, 0.45);
+  PointCloud map_cloud;
+  map_cloud.Append(ScanToCloud(Render(room, a), 0.05, 29.9), a);
+  const PointCloud scan_b = ScanToCloud(Render(room, b), 0.05, 29.9);
+  const MatchMap coarse(map_cloud, 0.1, 0.25, 0.1), fine(map_cloud, 0.05, 0.3, 0.05);
+  const SE2 guess = b * SE2(-0.2, 0.12, 0.08);  // an odometry-sized error
+  CorrelativeOptions co;
+  const CorrelativeResult cr = CorrelativeMatch(coarse, fine, Downsample(scan_b, 0.1).points, guess, co);
+  EXPECT_LT((cr.pose.translation() - b.translation()).norm(), 0.08);
+  const IcpResult icp = IcpMatch(fine, scan_b, cr.pose, IcpOptions{});
+  ASSERT_TRUE(icp.converged);
+  EXPECT_LT((icp.pose.translation() - b.translation()).norm(), 0.01);
+  EXPECT_LT(std::abs(NormalizeAngle(icp.pose.theta() - b.theta())), 0.2 * M_PI / 180);
+  EXPECT_GT(icp.inlier_fraction, 0.95);
+  EXPECT_LT(icp.mean_residual, 0.005);
+  // The information is estimated, positive definite and not a constant.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(icp.information);
+  EXPECT_GT(es.eigenvalues().minCoeff(), 0);
+}
+
+TEST(ScanMatcher, CorridorInformationIsWeakAlongTheAxis) {
+  const auto walls = Corridor();
+  const SE2 a(0, 1, 0);
+  PointCloud map_cloud;
+  map_cloud.Append(ScanToCloud(Render(walls, a, 361, 81.9), 0.05, 29.0), a);
+  const MatchMap fine(map_cloud, 0.05, 0.3, 0.05);
+  IcpResult icp = IcpMatch(fine, ScanToCloud(Render(walls, SE2(0.3, 1, 0), 361, 81.9), 0.05, 29.0),
+                           SE2(0.3, 1, 0), IcpOptions{});
+  ASSERT_TRUE(icp.converged);
+  const Eigen::Matrix3d cov = icp.information.inverse();
+  EXPECT_GT(cov(0, 0), 100 * cov(1, 1));  // along x barely known, across well known
+}
+
+TEST(LoopClosure, AcceptsTheRightPlaceAndRejectsAWrongCandidate) {
+  const auto room = Room();
+  const SE2 a(2.0, 1.5, 0.3), b(2.5, 1.8, 0.2);
+  PointCloud submap;
+  submap.Append(ScanToCloud(Render(room, a), 0.05, 29.9), a);
+  const PointCloud query = ScanToCloud(Render(room, b), 0.05, 29.9);
+  MapperOptions o;
+  SE2 pose;
+  Eigen::Matrix3d info;
+  ASSERT_TRUE(VerifyLoopClosure(submap, query, b * SE2(0.4, -0.3, 0.1), 1.0, o, &pose, &info));
+  EXPECT_LT((pose.translation() - b.translation()).norm(), 0.02);
+
+  // A scan from another place (the corridor) near the same estimate: the
+  // fitness tests must refuse it.
+  const PointCloud elsewhere = ScanToCloud(Render(Corridor(), SE2(0, 1, 0)), 0.05, 29.9);
+  EXPECT_FALSE(VerifyLoopClosure(submap, elsewhere, b, 1.0, o, &pose, &info));
+  // And in a corridor, a short-sighted scan fits anywhere along it: the
+  // ambiguity test must refuse to pick a place.
+  PointCloud corridor_map;
+  corridor_map.Append(ScanToCloud(Render(Corridor(), SE2(0, 1, 0)), 0.05, 29.9), SE2(0, 1, 0));
+  const PointCloud short_sighted = ScanToCloud(Render(Corridor(), SE2(0, 1, 0), 361, 8.0), 0.05, 7.9);
+  EXPECT_FALSE(VerifyLoopClosure(corridor_map, short_sighted, SE2(0.5, 1, 0), 1.0, o, &pose, &info));
+}
+
+TEST(OccupancyGrid, SingleBeamClearsThenMarksTheHit) {
+  GridOptions go;
+  go.resolution = 0.05;
+  OccupancyGrid grid({0, 0}, {2, 1}, go);
+  grid.AddBeam({0.025, 0.025}, {1.025, 0.025}, true);
+  for (int x = 0; x < 20; ++x) {
+    EXPECT_TRUE(grid.Known(x, 0));
+    EXPECT_FLOAT_EQ(grid.LogOdds(x, 0), static_cast<float>(go.log_odds_miss)) << x;
+  }
+  EXPECT_FLOAT_EQ(grid.LogOdds(20, 0), static_cast<float>(go.log_odds_hit));
+  EXPECT_GT(grid.Probability(20, 0), 0.65);
+  EXPECT_FALSE(grid.Known(21, 0));
+  EXPECT_FALSE(grid.Known(5, 1));
+  // A no-return beam only clears, the end cell included.
+  grid.AddBeam({0.025, 0.525}, {1.025, 0.525}, false);
+  for (int x = 0; x <= 20; ++x) EXPECT_LT(grid.LogOdds(x, 10), 0) << x;
+  // One miss is not yet "free" by map_server's thresholds; a few are.
+  for (int k = 0; k < 4; ++k) grid.AddBeam({0.025, 0.025}, {1.025, 0.025}, true);
+  const Image img = grid.ToTrinary();
+  EXPECT_EQ(img.pixels[static_cast<size_t>(grid.height() - 1) * grid.width() + 20], 0);  // occupied
+  EXPECT_EQ(img.pixels[static_cast<size_t>(grid.height() - 1) * grid.width() + 5], 254);  // free
+  EXPECT_EQ(img.pixels[0], 205);                                                        // unknown
+}
+
+TEST(ImageIo, PngHasSignatureChunksAndCrc) {
+  Image img{3, 2, 1, {0, 128, 255, 10, 20, 30}};
+  std::ostringstream os;
+  WritePng(img, os);
+  const std::string s = os.str();
+  ASSERT_GT(s.size(), 8u + 25u + 12u);
+  EXPECT_EQ(s.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  EXPECT_EQ(s.substr(12, 4), "IHDR");
+  EXPECT_EQ(s.substr(s.size() - 8, 4), "IEND");
+  // IEND's CRC is a constant of the format.
+  EXPECT_EQ(s.substr(s.size() - 4), std::string("\xae\x42\x60\x82", 4));
+}
+
+std::string WriteTemp(const std::string& name, const std::string& text) {
+  const auto path = std::filesystem::temp_directory_path() / name;
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+TEST(CarmenLog, RecoversRawOdometryAndReferencePoses) {
+  std::string beams;
+  for (int i = 0; i < 180; ++i) beams += " 2.5";
+  const std::string path = WriteTemp("cairn_test.log",
+      "# comment\nPARAM robot_frontlaser_offset 0.0 nohost 0\n"
+      "ODOM 0 0 0 0 0 0 1.0 h 1.0\n"
+      "FLASER 180" + beams + " 1 2 0.5 1 2 0.5 10.5 h 10.5\n"
+      "ODOM 1 2 0.5 0 0 0 0 h 0\n"
+      "ODOM 1.5 2 0.6 0 0 0 11.0 h 11.0\n"
+      "NEFF 10\n"
+      "FLASER 180" + beams + " 1.4 2.1 0.55 1.4 2.1 0.55 11.5 h 11.5\n");
+  const CarmenLog log = ReadCarmenLog(path);
+  ASSERT_EQ(log.scans.size(), 2u);
+  EXPECT_DOUBLE_EQ(log.scans[1].timestamp, 11.5);
+  EXPECT_NEAR(log.scans[1].reference.x(), 1.4, 1e-12);
+  const SE2 expected = SE2(1, 2, 0.5).Between(SE2(1.5, 2, 0.6));
+  EXPECT_NEAR(log.scans[1].odometry_increment.x(), expected.x(), 1e-12);
+  EXPECT_NEAR(log.scans[1].odometry_increment.y(), expected.y(), 1e-12);
+  EXPECT_NEAR(log.scans[1].odometry_increment.theta(), 0.1, 1e-12);
+  EXPECT_DOUBLE_EQ(log.max_reading, 2.5);
+  EXPECT_NEAR(log.scans[0].angle_increment, M_PI / 180, 1e-12);
+}
+
+TEST(CarmenLog, ReadsRobotLaserWithItsOwnGeometryAndOffset) {
+  // ROBOTLASER1 type start fov res maxrange accuracy remission n r.. nrem
+  // laser(x y th) robot(x y th) tv rv fsd ssd turn timestamp host logger
+  const std::string path = WriteTemp("cairn_robotlaser.log",
+      "ROBOTLASER1 0 -1.5 3.0 0.75 50 0.01 0 5 1 2 3 4 5 0 1.2 2 0.1 1 2 0.1 0 0 0 0 0 7.25 h 7.25\n");
+  const CarmenLog log = ReadCarmenLog(path);
+  ASSERT_EQ(log.scans.size(), 1u);
+  const LaserScan& s = log.scans[0];
+  EXPECT_EQ(s.ranges.size(), 5u);
+  EXPECT_DOUBLE_EQ(s.angle_min, -1.5);
+  EXPECT_DOUBLE_EQ(s.angle_increment, 0.75);
+  EXPECT_NEAR(s.reference.x(), 1, 1e-12);
+  // The laser's pose in the robot's frame (20 cm apart in the world).
+  const SE2 offset = SE2(1, 2, 0.1).Between(SE2(1.2, 2, 0.1));
+  EXPECT_NEAR(s.laser_offset.x(), offset.x(), 1e-12);
+  EXPECT_NEAR(s.laser_offset.y(), offset.y(), 1e-12);
+  EXPECT_NEAR(s.laser_offset.theta(), 0, 1e-12);
+  EXPECT_DOUBLE_EQ(s.timestamp, 7.25);
+}
+
+TEST(CarmenLog, MalformedLineNamesFileAndLine) {
+  const std::string path = WriteTemp("cairn_bad.log", "ODOM 0 0 0 0 0 0 1 h 1\nFLASER 3 1.0 x 2.0 0 0 0 0 0 0 1 h 1\n");
+  try {
+    ReadCarmenLog(path);
+    FAIL() << "expected a ParseError";
+  } catch (const ParseError& e) {
+    EXPECT_EQ(e.line(), 2u);
+    EXPECT_NE(std::string(e.what()).find(path + ":2:"), std::string::npos) << e.what();
+  }
+  const std::string truncated = WriteTemp("cairn_short.log", "FLASER 180 1 2 3\n");
+  EXPECT_THROW(ReadCarmenLog(truncated), ParseError);
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(MapTool, MalformedLogFailsWithFileLineAndWritesNothing) {
+  const auto dir = std::filesystem::temp_directory_path() / "cairn_map_bad";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string log = (dir / "bad.log").string();
+  std::ofstream(log) << "ODOM 0 0 0 0 0 0 1 h 1\nFLASER 3 1.0 x 2.0 0 0 0 0 0 0 1 h 1\n";
+  const std::string cmd = std::string(CAIRN_TOOL) + " map " + log + " -o " + (dir / "out").string() +
+                          " 2> " + (dir / "err").string();
+  EXPECT_NE(std::system(cmd.c_str()), 0);
+  EXPECT_NE(ReadAll((dir / "err").string()).find(log + ":2: "), std::string::npos);
+  size_t files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) files += e.path().filename() != "err";
+  EXPECT_EQ(files, 1u);  // only the log itself
+}
+
+TEST(Trajectory, RigidCopyHasNoErrorAndNoiseIsMeasured) {
+  Trajectory ref, est, noisy;
+  const SE2 offset(5, -3, 1.0);
+  for (int i = 0; i < 100; ++i) {
+    const SE2 p(0.1 * i, std::sin(0.1 * i), 0.05 * i);
+    ref.Add(i * 0.5, p);
+    est.Add(i * 0.5, offset * p);
+    noisy.Add(i * 0.5, SE2(p.x() + (i % 2 ? 0.1 : -0.1), p.y(), p.theta()));
+  }
+  TrajectoryErrors e = EvaluateTrajectory(est, ref);
+  EXPECT_EQ(e.matched, 100u);
+  EXPECT_NEAR(e.ate_rmse, 0, 1e-9);
+  EXPECT_NEAR(e.rpe_trans_rmse, 0, 1e-9);
+  e = EvaluateTrajectory(noisy, ref);
+  EXPECT_NEAR(e.ate_rmse, 0.1, 0.01);
+  EXPECT_GT(e.rpe_trans_rmse, 0.05);
+}
+
+TEST(Trajectory, RepeatedStampsPairOnlyWhenUnambiguous) {
+  Trajectory ref, est;
+  for (int i = 0; i < 6; ++i) ref.Add(i < 3 ? 100.0 : 200.0, SE2(i, 0, 0));
+  // All of the first group, two of the three of the second.
+  for (int i : {0, 1, 2, 3, 5}) est.Add(i < 3 ? 100.0 : 200.0, SE2(i, 0, 0));
+  const auto pairs = Associate(est, ref);
+  ASSERT_EQ(pairs.size(), 3u);
+  for (size_t k = 0; k < 3; ++k) EXPECT_EQ(pairs[k], std::make_pair(k, k));
+}
+
+// A square loop with a biased odometry and one true loop closure, plus one
+// false closure the robust loss must shrug off.
+PoseGraph SquareLoop() {
+  PoseGraph g(2);
+  SE2 x;
+  const int n = 16;
+  std::vector<SE2> steps;
+  for (int i = 0; i < n; ++i) {
+    const SE2 step = (i % 4 == 3) ? SE2(1, 0, M_PI / 2) : SE2(1, 0, 0);
+    steps.emplace_back(step.x() * 1.03, 0.02, step.theta() + 0.03);
+  }
+  for (int i = 0; i <= n; ++i) {
+    g.AddVertex(i, x, i == 0);
+    if (i < n) x = x * steps[i];
+  }
+  for (int i = 0; i < n; ++i) {
+    Edge e;
+    e.from = i;
+    e.to = i + 1;
+    e.z = ToParams(steps[i]);
+    e.information.topLeftCorner<3, 3>() = Eigen::Vector3d(100, 100, 400).asDiagonal();
+    g.AddEdge(e);
+  }
+  Edge lc;
+  lc.kind = EdgeKind::kLoopClosure;
+  lc.from = 0;
+  lc.to = n;
+  lc.z = ToParams(SE2(0, 0, 0));
+  lc.information.topLeftCorner<3, 3>() = Eigen::Vector3d(1000, 1000, 4000).asDiagonal();
+  g.AddEdge(lc);
+  lc.from = 2;
+  lc.to = 10;
+  lc.z = ToParams(SE2(3, 3, 1));  // wrong
+  g.AddEdge(lc);
+  return g;
+}
+
+TEST(Optimize, BothSolversCloseTheLoopDespiteAFalseClosure) {
+  for (const char* solver : {"ceres", "gn"}) {
+    PoseGraph g = SquareLoop();
+    OptimizeOptions o;
+    o.solver = solver;
+    const OptimizeSummary s = OptimizeGraph(g, o);
+    EXPECT_LT(s.final_chi2, s.initial_chi2) << solver;
+    const SE2 end = ToSE2(g.vertex(16).x);
+    EXPECT_LT(end.translation().norm(), 0.1) << solver;
+  }
+  PoseGraph g = SquareLoop();
+  OptimizeOptions bad;
+  bad.solver = "nope";
+  EXPECT_THROW(OptimizeGraph(g, bad), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace cairn::frontend

@@ -284,7 +284,69 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   w.cholesky = SparseCholesky::Create(w.linear_solver);
   std::vector<int> block_sizes;
   for (int v : variables) block_sizes.push_back(blocks_[v].tangent);
+  if (!ordering_hint_.empty()) {
+    std::vector<int> perm;
+    std::vector<bool> placed(nvar, false);
+    for (const double* p : ordering_hint_) {
+      auto it = block_index_.find(p);
+      if (it == block_index_.end()) continue;
+      const int v = blocks_[it->second].variable;
+      if (v < 0 || placed[v]) continue;
+      placed[v] = true;
+      perm.push_back(v);
+    }
+    for (int v = 0; v < nvar; ++v)
+      if (!placed[v]) perm.push_back(v);
+    w.cholesky->SetBlockOrdering(perm);
+    ordering_hint_.clear();
+  }
   if (w.n > 0) w.cholesky->Analyze(w.n, col_ptr, rows, block_sizes);
+}
+
+void GaussNewtonProblem::SetParameterBlockVariable(double* values) {
+  auto it = block_index_.find(values);
+  if (it == block_index_.end()) throw std::invalid_argument("unknown parameter block");
+  blocks_[it->second].constant = false;
+}
+
+void GaussNewtonProblem::SetOrderingHint(std::vector<const double*> order) {
+  ordering_hint_ = std::move(order);
+}
+
+std::vector<const double*> GaussNewtonProblem::Ordering() const {
+  std::vector<const double*> order;
+  if (!ws_ || !ws_->cholesky) return order;
+  for (int v : ws_->cholesky->BlockOrdering()) order.push_back(blocks_[ws_->variables[v]].values);
+  return order;
+}
+
+bool GaussNewtonProblem::MarginalCovariances(const std::vector<const double*>& which,
+                                             std::vector<Eigen::MatrixXd>* covariances) {
+  if (!ws_) throw std::logic_error("MarginalCovariances needs Prepare first");
+  Workspace& w = *ws_;
+  covariances->clear();
+  for (const double* p : which) {
+    auto it = block_index_.find(p);
+    if (it == block_index_.end()) throw std::invalid_argument("unknown parameter block");
+    covariances->push_back(Eigen::MatrixXd::Zero(blocks_[it->second].tangent, blocks_[it->second].tangent));
+  }
+  if (w.n == 0) return true;
+  Linearize();
+  double step = 0;
+  // Factorises H itself (lambda 0); the step it solves for is not used.
+  if (!SolveStep(0.0, &step)) return false;
+  std::vector<double> e(w.n, 0.0), x(w.n);
+  for (size_t k = 0; k < which.size(); ++k) {
+    const Block& b = blocks_[block_index_.at(which[k])];
+    if (b.variable < 0) continue;
+    for (int j = 0; j < b.tangent; ++j) {
+      e[b.offset + j] = 1.0;
+      w.cholesky->Solve(e.data(), x.data());
+      e[b.offset + j] = 0.0;
+      for (int i = 0; i < b.tangent; ++i) (*covariances)[k](i, j) = x[b.offset + i];
+    }
+  }
+  return true;
 }
 
 

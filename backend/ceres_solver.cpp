@@ -189,15 +189,12 @@ CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_cl
   }
 }
 
-SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  SolveResult result;
-  result.solver = "ceres";
+int ResolveThreads(int requested) {
+  return requested > 0 ? requested
+                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
 
-  CeresGraphProblem graph_problem(graph, options.loop_closure_loss);
-  // After the problem is built: that normalises the quaternions g2o would.
-  result.initial_chi2 = Chi2(graph);
-
+ceres::Solver::Options MakeSolverOptions(const PoseGraph& graph, const CeresOptions& options) {
   ceres::Solver::Options so;
   so.minimizer_type = ceres::TRUST_REGION;
   so.trust_region_strategy_type = options.method == CeresOptions::Method::kDogleg
@@ -205,13 +202,9 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
                                       : ceres::LEVENBERG_MARQUARDT;
   so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   so.sparse_linear_algebra_library_type = SparseLibraryFor(graph, options.sparse_library);
-  result.linear_solver = std::string("SPARSE_NORMAL_CHOLESKY/") +
-                         ceres::SparseLinearAlgebraLibraryTypeToString(so.sparse_linear_algebra_library_type);
   so.max_num_iterations = options.max_iterations;
   so.max_solver_time_in_seconds = options.max_time_s;
-  so.num_threads = options.threads > 0
-                       ? options.threads
-                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  so.num_threads = ResolveThreads(options.threads);
   so.function_tolerance = options.function_tolerance;
   so.gradient_tolerance = options.gradient_tolerance;
   so.parameter_tolerance = options.parameter_tolerance;
@@ -221,6 +214,21 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
   so.use_postordering = options.use_postordering;
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
+  return so;
+}
+
+SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  SolveResult result;
+  result.solver = "ceres";
+
+  CeresGraphProblem graph_problem(graph, options.loop_closure_loss);
+  // After the problem is built: that normalises the quaternions g2o would.
+  result.initial_chi2 = Chi2(graph);
+
+  ceres::Solver::Options so = MakeSolverOptions(graph, options);
+  result.linear_solver = std::string("SPARSE_NORMAL_CHOLESKY/") +
+                         ceres::SparseLinearAlgebraLibraryTypeToString(so.sparse_linear_algebra_library_type);
   TraceCallback callback(&result, options.verbose);
   so.callbacks.push_back(&callback);
   result.setup_time_s = Seconds(start);

@@ -6,6 +6,7 @@
 #include <ceres/loss_function.h>
 #include <ceres/manifold.h>
 #include <ceres/problem.h>
+#include <ceres/solver.h>
 
 #include <cstdint>
 #include <memory>
@@ -76,6 +77,14 @@ class CeresGraphProblem {
   std::unique_ptr<ceres::Problem> problem_;
   std::optional<int64_t> gauge_;
 };
+
+// Ceres's solver settings for these options on this graph (the sparse
+// library chosen per graph when kAuto); shared by the batch and incremental
+// paths. Callbacks are the caller's to add.
+ceres::Solver::Options MakeSolverOptions(const PoseGraph& graph, const CeresOptions& options);
+
+// Worker threads for a request: 0 means one per hardware thread.
+int ResolveThreads(int requested);
 
 // Optimises the graph's vertices in place. initial_chi2 and final_chi2 are
 // g2o's (without the robust loss); the per-iteration trace holds twice

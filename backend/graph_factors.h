@@ -20,6 +20,17 @@ ceres::CostFunction* MakeCostFunction(const PoseGraph& graph, const Edge& edge);
 // squared norm s = |r|^2 with the shapes of g2o's kernels of the same width.
 std::unique_ptr<ceres::LossFunction> MakeLoss(const RobustLoss& loss);
 
+// Lends a caller-owned loss to a problem that takes ownership of its losses
+// (GaussNewtonProblem), so that many residuals can share one.
+class BorrowedLoss final : public ceres::LossFunction {
+ public:
+  explicit BorrowedLoss(const ceres::LossFunction* loss) : loss_(loss) {}
+  void Evaluate(double s, double rho[3]) const override { loss_->Evaluate(s, rho); }
+
+ private:
+  const ceres::LossFunction* loss_;
+};
+
 // Per vertex (in vertices() order): true when some edge touches it, i.e.
 // it is a parameter of the problem.
 std::vector<bool> TouchedVertices(const PoseGraph& graph);

@@ -7,20 +7,6 @@
 #include "factors/pose_manifold.h"
 
 namespace cairn {
-namespace {
-
-// Lends a caller-owned loss to a problem that would take ownership.
-class BorrowedLoss final : public ceres::LossFunction {
- public:
-  explicit BorrowedLoss(const ceres::LossFunction* loss) : loss_(loss) {}
-  void Evaluate(double s, double rho[3]) const override { loss_->Evaluate(s, rho); }
-
- private:
-  const ceres::LossFunction* loss_;
-};
-
-}  // namespace
-
 SolveResult SolveGaussNewton(PoseGraph& graph, const GaussNewtonOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   const auto manifold =

@@ -19,15 +19,6 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
-// The Gauss-Newton problem owns its losses; all loop closures share ours.
-class BorrowedLoss final : public ceres::LossFunction {
- public:
-  explicit BorrowedLoss(const ceres::LossFunction* loss) : loss_(loss) {}
-  void Evaluate(double s, double rho[3]) const override { loss_->Evaluate(s, rho); }
-
- private:
-  const ceres::LossFunction* loss_;
-};
 
 Edge MakeEdge(EdgeKind kind, int64_t from, int64_t to, const PoseParams& z,
               const Eigen::MatrixXd& information) {
@@ -41,42 +32,6 @@ Edge MakeEdge(EdgeKind kind, int64_t from, int64_t to, const PoseParams& z,
   return e;
 }
 
-int Threads(int requested) {
-  return requested > 0 ? requested
-                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-}
-
-// The batch Ceres path's settings (backend/ceres_solver.cpp), for a problem
-// that outlives one solve.
-ceres::Solver::Options SolverOptionsFor(const CeresOptions& o) {
-  ceres::Solver::Options so;
-  so.minimizer_type = ceres::TRUST_REGION;
-  so.trust_region_strategy_type = o.method == CeresOptions::Method::kDogleg
-                                      ? ceres::DOGLEG
-                                      : ceres::LEVENBERG_MARQUARDT;
-  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  switch (o.sparse_library) {
-    case CeresOptions::SparseLibrary::kEigen:
-      so.sparse_linear_algebra_library_type = ceres::EIGEN_SPARSE;
-      break;
-    case CeresOptions::SparseLibrary::kCxSparse:
-      so.sparse_linear_algebra_library_type = ceres::CX_SPARSE;
-      break;
-    default: so.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-  }
-  so.max_num_iterations = o.max_iterations;
-  so.max_solver_time_in_seconds = o.max_time_s;
-  so.num_threads = Threads(o.threads);
-  so.function_tolerance = o.function_tolerance;
-  so.gradient_tolerance = o.gradient_tolerance;
-  so.parameter_tolerance = o.parameter_tolerance;
-  so.jacobi_scaling = o.jacobi_scaling;
-  so.initial_trust_region_radius = o.initial_trust_region_radius;
-  so.min_lm_diagonal = o.min_lm_diagonal;
-  so.logging_type = ceres::SILENT;
-  so.minimizer_progress_to_stdout = o.verbose;
-  return so;
-}
 
 }  // namespace
 
@@ -238,7 +193,8 @@ SolveResult IncrementalOptimizer::Optimize(SolverKind solver) {
   result.solver = "ceres-incremental";
   SyncCeres();
   result.initial_chi2 = Chi2(graph_);
-  ceres::Solver::Options so = SolverOptionsFor(options_.ceres);
+  ceres::Solver::Options so = MakeSolverOptions(graph_, options_.ceres);
+  so.minimizer_progress_to_stdout = options_.ceres.verbose;
   result.setup_time_s = Seconds(start);
   ceres::Solver::Summary summary;
   ceres::Solve(so, ceres_.get(), &summary);
@@ -270,7 +226,7 @@ std::vector<Eigen::MatrixXd> IncrementalOptimizer::MarginalCovariances(
   }
   if (solver == SolverKind::kCeres) {
     SyncCeres();
-    return CeresMarginalCovariances(*ceres_, blocks, Threads(options_.ceres.threads));
+    return CeresMarginalCovariances(*ceres_, blocks, ResolveThreads(options_.ceres.threads));
   }
   SyncGaussNewton();
   // Prepare (with the kept ordering when it still applies) without a solve.

@@ -580,6 +580,14 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
           continue;
         }
         RestoreEstimate();
+        // Within rounding of chi2: the estimate is at the minimum already,
+        // and a full step would only confirm it at the price of a factorisation.
+        if (std::isfinite(new_chi2) && new_chi2 - chi2 <= 1e-12 * chi2) {
+          result.iterations = iter;
+          record(iter, step_norm, false, solve_s);
+          return finish("convergence",
+                        "converged: the next step changes chi-squared only within rounding", true);
+        }
       }
       have_factor = false;  // fall through: a full step from the same point
     }

@@ -9,7 +9,10 @@ cd "$(dirname "$0")/.."
 WORK="${1:-build/robustness}"
 SOLVER="${2:-ceres}"
 DATA=../shared/datasets/g2o
-CAIRN=build/cairn
+# A copy: rebuilding build/ while this runs must not change the binary midway.
+mkdir -p "$WORK"
+cp build/cairn "$WORK/cairn"
+CAIRN="$WORK/cairn"
 mkdir -p "$WORK"
 : > "$WORK/runs.txt"
 for file in 2d/intel 2d/city10000 2d/manhattan 3d/sphere2500; do

@@ -122,6 +122,10 @@ void GaussNewtonProblem::AddResidualBlock(ceres::CostFunction* cost, ceres::Loss
 
 namespace {
 
+// Chord steps start once a full step lowers chi2 by less than this fraction:
+// by then the problem is close to quadratic and H changes little.
+constexpr double kChordThreshold = 2e-2;
+
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
@@ -280,7 +284,69 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   w.cholesky = SparseCholesky::Create(w.linear_solver);
   std::vector<int> block_sizes;
   for (int v : variables) block_sizes.push_back(blocks_[v].tangent);
+  if (!ordering_hint_.empty()) {
+    std::vector<int> perm;
+    std::vector<bool> placed(nvar, false);
+    for (const double* p : ordering_hint_) {
+      auto it = block_index_.find(p);
+      if (it == block_index_.end()) continue;
+      const int v = blocks_[it->second].variable;
+      if (v < 0 || placed[v]) continue;
+      placed[v] = true;
+      perm.push_back(v);
+    }
+    for (int v = 0; v < nvar; ++v)
+      if (!placed[v]) perm.push_back(v);
+    w.cholesky->SetBlockOrdering(perm);
+    ordering_hint_.clear();
+  }
   if (w.n > 0) w.cholesky->Analyze(w.n, col_ptr, rows, block_sizes);
+}
+
+void GaussNewtonProblem::SetParameterBlockVariable(double* values) {
+  auto it = block_index_.find(values);
+  if (it == block_index_.end()) throw std::invalid_argument("unknown parameter block");
+  blocks_[it->second].constant = false;
+}
+
+void GaussNewtonProblem::SetOrderingHint(std::vector<const double*> order) {
+  ordering_hint_ = std::move(order);
+}
+
+std::vector<const double*> GaussNewtonProblem::Ordering() const {
+  std::vector<const double*> order;
+  if (!ws_ || !ws_->cholesky) return order;
+  for (int v : ws_->cholesky->BlockOrdering()) order.push_back(blocks_[ws_->variables[v]].values);
+  return order;
+}
+
+bool GaussNewtonProblem::MarginalCovariances(const std::vector<const double*>& which,
+                                             std::vector<Eigen::MatrixXd>* covariances) {
+  if (!ws_) throw std::logic_error("MarginalCovariances needs Prepare first");
+  Workspace& w = *ws_;
+  covariances->clear();
+  for (const double* p : which) {
+    auto it = block_index_.find(p);
+    if (it == block_index_.end()) throw std::invalid_argument("unknown parameter block");
+    covariances->push_back(Eigen::MatrixXd::Zero(blocks_[it->second].tangent, blocks_[it->second].tangent));
+  }
+  if (w.n == 0) return true;
+  Linearize();
+  double step = 0;
+  // Factorises H itself (lambda 0); the step it solves for is not used.
+  if (!SolveStep(0.0, &step)) return false;
+  std::vector<double> e(w.n, 0.0), x(w.n);
+  for (size_t k = 0; k < which.size(); ++k) {
+    const Block& b = blocks_[block_index_.at(which[k])];
+    if (b.variable < 0) continue;
+    for (int j = 0; j < b.tangent; ++j) {
+      e[b.offset + j] = 1.0;
+      w.cholesky->Solve(e.data(), x.data());
+      e[b.offset + j] = 0.0;
+      for (int i = 0; i < b.tangent; ++i) (*covariances)[k](i, j) = x[b.offset + i];
+    }
+  }
+  return true;
 }
 
 
@@ -332,7 +398,7 @@ double GaussNewtonProblem::Evaluate(bool jacobians) {
   return sum;
 }
 
-double GaussNewtonProblem::Linearize() {
+double GaussNewtonProblem::Linearize(bool assemble_h) {
   Workspace& w = *ws_;
   const std::vector<int>& variables = w.variables;
   const int nvar = static_cast<int>(variables.size());
@@ -345,6 +411,7 @@ double GaussNewtonProblem::Linearize() {
     const double chi2 = Evaluate(true);
     double* h = w.cholesky->values();
     // H, block by block; each block written by one thread only.
+    if (assemble_h)
     pool_->ParallelFor(w.h_block_order.size(), [&](size_t begin, size_t end) {
       // One buffer per chunk, sized for the largest block.
       Eigen::MatrixXd buffer(w.max_tangent, w.max_tangent);
@@ -380,8 +447,17 @@ double GaussNewtonProblem::Linearize() {
         }
       }
     });
-    for (int i = 0; i < w.n; ++i) w.diagonal_saved[i] = w.cholesky->values()[w.diagonal[i]];
+    if (assemble_h)
+      for (int i = 0; i < w.n; ++i) w.diagonal_saved[i] = w.cholesky->values()[w.diagonal[i]];
     return chi2;
+}
+
+bool GaussNewtonProblem::SolveWithLastFactor(double* step_norm) {
+  Workspace& w = *ws_;
+  w.cholesky->Solve(w.b.data(), w.dx.data());
+  for (double& d : w.dx) d = -d;
+  *step_norm = Eigen::Map<const Eigen::VectorXd>(w.dx.data(), w.n).norm();
+  return std::isfinite(*step_norm);
 }
 
 bool GaussNewtonProblem::SolveStep(double lambda, double* step_norm) {
@@ -471,7 +547,42 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   if (w.n == 0) return finish("convergence", "nothing to optimise: every block is constant", true);
 
   double resume_lambda = 0;
+  double last_decrease = 1.0;
+  bool have_factor = false;
   for (int iter = 1; iter <= options.max_iterations; ++iter) {
+    // Near the optimum H hardly changes: a step with the last factorisation
+    // (a chord step) costs a linearisation and two triangular solves instead
+    // of a factorisation. Kept only if it lowers chi2; else a full step.
+    if (options.reuse_factorization && have_factor && last_decrease < kChordThreshold) {
+      const auto tl = std::chrono::steady_clock::now();
+      Linearize(/*assemble_h=*/false);
+      result.linearize_time_s += Seconds(tl);
+      SaveEstimate();
+      double step_norm = 0;
+      const auto ts = std::chrono::steady_clock::now();
+      const bool ok = SolveWithLastFactor(&step_norm);
+      const double solve_s = Seconds(ts);
+      result.linear_solver_time_s += solve_s;
+      if (ok) {
+        ApplyStep();
+        const double new_chi2 = Evaluate(false);
+        if (std::isfinite(new_chi2) && new_chi2 <= chi2) {
+          const double decrease = (chi2 - new_chi2) / std::max(chi2, std::numeric_limits<double>::min());
+          chi2 = new_chi2;
+          result.iterations = iter;
+          ++result.reused_factorizations;
+          record(iter, step_norm, true, solve_s);
+          if (decrease < options.function_tolerance)
+            return finish("convergence",
+                          "function tolerance reached: relative decrease " + std::to_string(decrease),
+                          true);
+          last_decrease = decrease;
+          continue;
+        }
+        RestoreEstimate();
+      }
+      have_factor = false;  // fall through: a full step from the same point
+    }
     const auto tl = std::chrono::steady_clock::now();
     Linearize();
     result.linearize_time_s += Seconds(tl);
@@ -541,6 +652,8 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
     }
     const double decrease = (chi2 - new_chi2) / std::max(chi2, std::numeric_limits<double>::min());
     chi2 = new_chi2;
+    last_decrease = decrease;
+    have_factor = true;
     record(iter, step_norm, true, solve_s);
     if (decrease < options.function_tolerance)
       return finish("convergence",

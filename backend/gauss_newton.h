@@ -8,6 +8,7 @@
 #include <ceres/loss_function.h>
 #include <ceres/manifold.h>
 
+#include <Eigen/Core>
 #include <memory>
 #include <string>
 #include <unordered_map>
@@ -27,6 +28,9 @@ struct GaussNewtonOptions : SolverOptions {
   // lowers it.
   double damping = 1e-4;
   CholeskyKind linear_solver = CholeskyKind::kAuto;
+  // Once chi2 falls by less than 2% a step, try the last factorisation of
+  // H with the new gradient before factorising again (see Solve).
+  bool reuse_factorization = true;
 };
 
 // A least-squares problem in the shape of ceres::Problem, for our solver.
@@ -58,12 +62,34 @@ class GaussNewtonProblem {
   // SolveStep factorises H + lambda diag(H) and solves for the step (false
   // if not positive definite); ApplyStep moves the estimate by it.
   void Prepare(const GaussNewtonOptions& options);
-  double Linearize();
+  double Linearize(bool assemble_h = true);
   bool SolveStep(double lambda, double* step_norm);
+  // The step from the last factorisation and the current gradient.
+  bool SolveWithLastFactor(double* step_norm);
   void ApplyStep();
   int TangentDimension() const;
   long FactorNonZeros() const;
   CholeskyKind LinearSolver() const;  // the one Prepare chose
+
+  // Undoes SetParameterBlockConstant (the next Prepare sees the change).
+  void SetParameterBlockVariable(double* values);
+
+  // For a problem that only grew: the next Prepare eliminates the variable
+  // blocks in this order (blocks not listed come last, in the order they
+  // were added) instead of computing a fresh fill-reducing ordering.
+  // Honoured by the CHOLMOD solvers; Eigen orders by itself.
+  void SetOrderingHint(std::vector<const double*> order);
+  // The elimination order of the variable blocks after Prepare (empty when
+  // the linear solver does not report it), to pass back as a hint.
+  std::vector<const double*> Ordering() const;
+
+  // Marginal covariances, in the tangent space, of the given blocks at the
+  // current estimate: H is linearised and factorised undamped and H X = E
+  // solved for the blocks' columns (the Laplace approximation, as Ceres's
+  // Covariance). A constant block gets a zero matrix. Needs Prepare; false
+  // when H is not positive definite (an unobserved direction).
+  bool MarginalCovariances(const std::vector<const double*>& blocks,
+                           std::vector<Eigen::MatrixXd>* covariances);
 
  private:
   struct Block;
@@ -79,6 +105,7 @@ class GaussNewtonProblem {
   std::vector<Residual> residuals_;
   std::unique_ptr<Workspace> ws_;
   std::unique_ptr<ThreadPool> pool_;
+  std::vector<const double*> ordering_hint_;
 };
 
 }  // namespace cairn

@@ -24,7 +24,7 @@ using VertexPair = std::pair<int64_t, int64_t>;
 std::vector<VertexPair> AddWrongLoopClosures(PoseGraph& graph, int count, uint64_t seed);
 
 // The p-quantile of the chi-squared distribution with `dof` degrees of
-// freedom (Wilson-Hilferty; within 1% for dof >= 3 and p in [0.9, 0.9999]).
+// freedom (Wilson-Hilferty: within 2% for dof >= 3 and p in [0.9, 0.999]).
 double ChiSquaredQuantile(double p, int dof);
 
 struct OutlierRejectionOptions {

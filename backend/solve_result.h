@@ -64,6 +64,7 @@ struct SolveResult {
   std::string termination;
   std::string message;  // the solver's own words on why it stopped
   bool converged = false;
+  int reused_factorizations = 0;  // Gauss-Newton: steps taken with an earlier factorisation
   bool usable = false;  // the estimate is at least as good as the start
   std::vector<IterationRecord> trace;
 };

@@ -64,7 +64,7 @@ class Cholmod final : public SparseCholesky {
     std::memcpy(a_->p, col_ptr.data(), sizeof(int) * (n + 1));
     std::memcpy(a_->i, rows.data(), sizeof(int) * rows.size());
     std::memset(a_->x, 0, sizeof(double) * rows.size());
-    const std::vector<int> perm = BlockOrdering(n, col_ptr, rows, block_sizes);
+    const std::vector<int> perm = ScalarOrdering(n, col_ptr, rows, block_sizes);
     if (!perm.empty()) {
       common_.method[0].ordering = CHOLMOD_GIVEN;
       factor_ = cholmod_analyze_p(a_, const_cast<int*>(perm.data()), nullptr, 0, &common_);
@@ -109,11 +109,15 @@ class Cholmod final : public SparseCholesky {
 
   bool IsSupernodal() const override { return factor_ && factor_->is_super; }
 
+  void SetBlockOrdering(const std::vector<int>& block_perm) override { given_ = block_perm; }
+  std::vector<int> BlockOrdering() const override { return used_; }
+
  private:
-  // AMD on the block graph, expanded to scalars; empty when not blocked.
-  std::vector<int> BlockOrdering(int n, const std::vector<int>& col_ptr,
-                                 const std::vector<int>& rows,
-                                 const std::vector<int>& block_sizes) {
+  // AMD on the block graph (or the given block ordering), expanded to
+  // scalars; empty when not blocked.
+  std::vector<int> ScalarOrdering(int n, const std::vector<int>& col_ptr,
+                                  const std::vector<int>& rows,
+                                  const std::vector<int>& block_sizes) {
     if (block_sizes.size() < 2) return {};
     const int nb = static_cast<int>(block_sizes.size());
     std::vector<int> first(nb + 1, 0), block_of(n);
@@ -121,6 +125,10 @@ class Cholmod final : public SparseCholesky {
     if (first[nb] != n) throw std::invalid_argument("block sizes do not add up to the matrix size");
     for (int b = 0; b < nb; ++b)
       for (int i = first[b]; i < first[b + 1]; ++i) block_of[i] = b;
+    if (static_cast<int>(given_.size()) == nb) {
+      used_ = given_;
+      return Expand(used_, first, n);
+    }
     // The last scalar column of a block holds every block row it touches.
     std::vector<int> bp(nb + 1, 0), bi;
     for (int b = 0; b < nb; ++b) {
@@ -139,12 +147,20 @@ class Cholmod final : public SparseCholesky {
     const int ok = cholmod_amd(pattern, nullptr, 0, block_perm.data(), &common_);
     cholmod_free_sparse(&pattern, &common_);
     if (!ok) return {};
+    used_ = block_perm;
+    return Expand(block_perm, first, n);
+  }
+
+  static std::vector<int> Expand(const std::vector<int>& block_perm, const std::vector<int>& first,
+                                 int n) {
     std::vector<int> perm;
     perm.reserve(n);
     for (int b : block_perm)
       for (int i = first[b]; i < first[b + 1]; ++i) perm.push_back(i);
     return perm;
   }
+
+  std::vector<int> given_, used_;
 
   cholmod_common common_;
   cholmod_sparse* a_ = nullptr;

@@ -47,6 +47,14 @@ class SparseCholesky {
   // Nonzeros of the factor (after the first Factorize).
   virtual long FactorNonZeros() const = 0;
   virtual bool IsSupernodal() const = 0;
+
+  // Reusing an ordering: a block permutation (block k is eliminated at
+  // position k) that the next Analyze takes instead of computing AMD; empty
+  // for AMD. Lets a graph that only grew keep its old ordering with the new
+  // poses appended. Backends that order internally (Eigen) ignore it.
+  virtual void SetBlockOrdering(const std::vector<int>& block_perm) {}
+  // The block permutation the last Analyze used; empty when unknown.
+  virtual std::vector<int> BlockOrdering() const { return {}; }
 };
 
 }  // namespace cairn

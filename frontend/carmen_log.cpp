@@ -106,7 +106,7 @@ CarmenLog ReadCarmenLog(const std::string& path) {
   size_t line_no = 0;
   // The ODOM chain restarts at each scan's pose; the last ODOM before a scan
   // gives the raw motion since the previous one.
-  bool have_prev_scan = false, have_odom = false;
+  bool have_prev_scan = false, have_odom = false, odom_since_scan = false;
   SE2 prev_scan_pose, last_odom;
   while (reader.Next(&text)) {
     ++line_no;
@@ -125,6 +125,7 @@ CarmenLog ReadCarmenLog(const std::string& path) {
       last_odom = SE2(p.Double(1, "x"), p.Double(2, "y"), p.Double(3, "theta"));
       p.Double(7, "timestamp");
       have_odom = true;
+      odom_since_scan = true;
       continue;
     }
     LaserScan scan;
@@ -174,6 +175,8 @@ CarmenLog ReadCarmenLog(const std::string& path) {
       log.max_reading = std::max(log.max_reading, static_cast<double>(r));
     }
     if (have_prev_scan && have_odom) scan.odometry_increment = prev_scan_pose.Between(last_odom);
+    scan.odometry_measured = have_prev_scan && odom_since_scan;
+    odom_since_scan = false;
     prev_scan_pose = scan.reference;
     // Until an ODOM line follows, the robot has not moved since this scan.
     last_odom = scan.reference;

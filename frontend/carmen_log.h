@@ -20,6 +20,9 @@ struct LaserScan {
   // Raw odometry from the previous scan's pose to this one (identity for the
   // first scan of the log).
   SE2 odometry_increment;
+  // Whether any ODOM line came between the previous scan and this one (if
+  // not, the increment above is the identity by assumption, not measured).
+  bool odometry_measured = false;
   // The pose the log carries on the scan line (a reference trajectory in the
   // corrected logs).
   SE2 reference;

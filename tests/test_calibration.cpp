@@ -346,7 +346,7 @@ TEST(Calibration, CarmenLogReader) {
             1e-12);
 
   const std::string bad = TempPath("bad.log");
-  std::ofstream(bad) << "FLASER 3 1 1 1 1 2 0.5\nODOM 1 2 x\nFLASER 3 1 1\n";
+  std::ofstream(bad) << "FLASER 3 1 1 1 1 2 0.5 1 2 0.5 0 h 0\nODOM 1 2 x\nFLASER 3 1 1\n";
   try {
     ReadCarmenCalibration(bad);
     ADD_FAILURE() << "accepted a bad log";

@@ -106,9 +106,9 @@ TEST(RobustKernels, GaussNewtonAndCeresAgreeWithEveryKernel) {
       const SolveResult rc = SolveWithCeres(by_ceres, co);
       const SolveResult rg = SolveGaussNewton(by_gn, go);
       ASSERT_TRUE(rc.usable && rg.usable) << kernel;
-      EXPECT_LT(MaxPositionDifference(by_ceres, by_gn), 1e-4)
+      EXPECT_LT(MaxPositionDifference(by_ceres, by_gn), 1e-3)
           << "dim " << dim << " " << kernel << ": " << rc.message << " / " << rg.message;
-      EXPECT_NEAR(rc.final_chi2, rg.final_chi2, 1e-6 * rc.final_chi2) << kernel;
+      EXPECT_NEAR(rc.final_chi2, rg.final_chi2, 1e-5 * rc.final_chi2) << kernel;
     }
   }
 }

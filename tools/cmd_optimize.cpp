@@ -6,6 +6,7 @@
 
 #include "backend/ceres_solver.h"
 #include "backend/chi2.h"
+#include "backend/covariance.h"
 #include "backend/graph_gauss_newton.h"
 #include "backend/graph_io.h"
 #include "backend/outliers.h"
@@ -21,6 +22,27 @@ std::string Number(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.10g", v);
   return buf;
+}
+
+// The marginal covariances as a JSON object {"id": [[row], ...], ...}.
+std::string CovarianceJson(const std::vector<int64_t>& ids, const std::vector<Eigen::MatrixXd>& cov) {
+  std::ostringstream os;
+  os << "{";
+  for (size_t k = 0; k < ids.size(); ++k) {
+    os << (k ? ",\n    " : "\n    ") << "\"" << ids[k] << "\": [";
+    for (int i = 0; i < cov[k].rows(); ++i) {
+      os << (i ? ", [" : "[");
+      for (int j = 0; j < cov[k].cols(); ++j) {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%.17g", cov[k](i, j));
+        os << (j ? ", " : "") << buf;
+      }
+      os << "]";
+    }
+    os << "]";
+  }
+  os << "\n  }";
+  return os.str();
 }
 
 int RunOptimize(int argc, char** argv) {
@@ -77,6 +99,10 @@ int RunOptimize(int argc, char** argv) {
   args.Option("report", &report, "FILE.json",
               "write a JSON report: initial_chi2, final_chi2, iterations, time_s, "
               "termination, timings and the per-iteration trace");
+  std::string covariance_ids;  // "3,17,42"
+  args.Option("covariance", &covariance_ids, "IDS",
+              "print the marginal covariances (tangent space, the pose's own frame) of these "
+              "vertices at the optimum, e.g. 3,17,42, and add them to the --report JSON");
   args.Option("plot", &plot, "FILE.svg",
               "draw the trajectory before and after, loop closures in red (3D: x-y view)");
   bool reject_outliers = false;
@@ -120,6 +146,16 @@ int RunOptimize(int argc, char** argv) {
   static_cast<SolverOptions&>(gn) = o;
   gn.damping = gn_damping;
 
+  std::vector<int64_t> covariance_of;
+  if (!covariance_ids.empty()) {
+    try {
+      covariance_of = ParseIdList(covariance_ids);
+    } catch (const std::invalid_argument& e) {
+      PrintError(std::string("--covariance: ") + e.what());
+      return 2;
+    }
+  }
+
   ReadOptions read_options;
   read_options.strict = strict;
   read_options.warnings = &std::cerr;
@@ -160,6 +196,31 @@ int RunOptimize(int argc, char** argv) {
   // A failed solve leaves no output behind (the report still says why).
   if (result.usable) WriteFileAtomically(out, [&](std::ostream& os) { WriteG2o(graph, os); });
 
+  std::vector<Eigen::MatrixXd> covariances;
+  // Not from a failed solve: the estimate is no optimum.
+  if (!covariance_of.empty() && result.usable) {
+    // From the solver that found the optimum (Ceres's ceres::Covariance, or
+    // the Gauss-Newton factorisation); tests/test_covariance.cpp checks that
+    // the two agree.
+    const SolverKind kind = solver == "gn" ? SolverKind::kGaussNewton : SolverKind::kCeres;
+    try {
+      covariances = MarginalCovariances(graph, covariance_of, kind, o.loop_closure_loss);
+    } catch (const std::exception& e) {
+      PrintError(std::string("--covariance: ") + e.what());
+      return 1;
+    }
+    for (size_t k = 0; k < covariance_of.size(); ++k) {
+      std::printf("vertex %lld covariance (%s, own frame)%s:\n",
+                  static_cast<long long>(covariance_of[k]),
+                  graph.dimension() == 2 ? "dx dy dtheta" : "dx dy dz wx wy wz",
+                  covariances[k].isZero() ? " [held: the gauge or fixed]" : "");
+      for (int i = 0; i < covariances[k].rows(); ++i) {
+        for (int j = 0; j < covariances[k].cols(); ++j) std::printf(" %14.6e", covariances[k](i, j));
+        std::printf("\n");
+      }
+    }
+  }
+
   if (!report.empty()) {
     const std::vector<std::pair<std::string, std::string>> context = {
         {"input", in},
@@ -173,21 +234,27 @@ int RunOptimize(int argc, char** argv) {
         {"sparse", solver == "gn" ? linear_solver : sparse},
         {"read_time_s", Number(read_time)},
     };
-    WriteFileAtomically(report, [&](std::ostream& os) {
-      std::ostringstream json;
-      WriteReportJson(result, json, context);
-      std::string text = json.str();
-      if (reject_outliers) {
-        // An array has no place among the string-valued context: spliced
-        // in after the opening brace.
-        std::string pairs = "  \"rejected_loop_closures\": [";
-        for (size_t i = 0; i < rejected.size(); ++i)
-          pairs += (i ? ", [" : "[") + std::to_string(rejected[i].first) + ", " +
-                   std::to_string(rejected[i].second) + "]";
-        text.insert(text.find('{') + 2, pairs + "],\n");
-      }
-      os << text;
-    });
+    std::ostringstream json;
+    WriteReportJson(result, json, context);
+    std::string text = json.str();
+    if (reject_outliers) {
+      // An array has no place among the string-valued context: spliced in
+      // after the opening brace.
+      std::string pairs = "  \"rejected_loop_closures\": [";
+      for (size_t i = 0; i < rejected.size(); ++i)
+        pairs += (i ? ", [" : "[") + std::to_string(rejected[i].first) + ", " +
+                 std::to_string(rejected[i].second) + "]";
+      text.insert(text.find('{') + 2, pairs + "],\n");
+    }
+    if (!covariances.empty()) {
+      // Spliced in before the closing brace: the shared report writer knows
+      // nothing of covariances.
+      const size_t brace = text.find_last_of('}');
+      const size_t end = text.find_last_not_of(" \n", brace - 1) + 1;
+      text = text.substr(0, end) + ",\n  \"covariance\": " +
+             CovarianceJson(covariance_of, covariances) + "\n}\n";
+    }
+    WriteFileAtomically(report, [&](std::ostream& os) { os << text; });
   }
   if (!plot.empty()) {
     PlotPanel a{&before, "before: chi2 " + Number(result.initial_chi2), "#888888"};

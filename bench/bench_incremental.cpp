@@ -1,0 +1,170 @@
+// Incremental re-optimisation against a cold solve, on a simulated
+// 10,000-pose graph: the cold solve builds the problem and optimises from
+// odometry; the re-optimisation adds one pose with its odometry (and a loop
+// closure) to an optimised graph and optimises again, warm-started, with the
+// problem kept (Gauss-Newton: with its ordering kept too, or recomputed).
+//   build/bench/bench_incremental
+// Args: dimension, solver (0 Ceres, 1 Gauss-Newton), then for the warm
+// case: add a loop closure (0/1), keep the Gauss-Newton ordering (0/1).
+#include <benchmark/benchmark.h>
+
+#include <limits>
+#include <memory>
+
+#include "backend/ceres_solver.h"
+#include "backend/graph_gauss_newton.h"
+#include "backend/incremental.h"
+#include "backend/simulate.h"
+
+namespace cairn {
+namespace {
+
+constexpr int kPoses = 10000;
+constexpr int kExtra = 2000;  // poses the warm benchmark may add
+
+const Simulation& Sim(int dimension) {
+  static std::unique_ptr<Simulation> sims[4];
+  if (!sims[dimension]) {
+    SimulationOptions o;
+    o.dimension = dimension;
+    o.poses = kPoses + kExtra;
+    o.nodes_per_lap = 100;
+    o.seed = 1;
+    sims[dimension] = std::make_unique<Simulation>(Simulate(o));
+  }
+  return *sims[dimension];
+}
+
+// The first `n` poses of the simulation and the edges among them, the
+// estimate chained from odometry as the simulator leaves it.
+PoseGraph Prefix(const PoseGraph& g, int64_t n) {
+  PoseGraph out(g.dimension());
+  for (const Vertex& v : g.vertices())
+    if (v.id < n) out.AddVertex(v.id, v.x, v.fixed);
+  for (const Edge& e : g.edges())
+    if (e.from < n && (e.IsPrior() || e.to < n)) out.AddEdge(e);
+  return out;
+}
+
+IncrementalOptions Options() {
+  IncrementalOptions o;
+  o.ceres.threads = 2;
+  o.gauss_newton.threads = 2;
+  return o;
+}
+
+void BM_ColdSolve(benchmark::State& state) {
+  const int dim = static_cast<int>(state.range(0));
+  const bool gn = state.range(1) == 1;
+  const PoseGraph start = Prefix(Sim(dim).noisy, kPoses);
+  const IncrementalOptions o = Options();
+  double iterations = 0, chi2 = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    PoseGraph g = start;
+    state.ResumeTiming();
+    const SolveResult r = gn ? SolveGaussNewton(g, o.gauss_newton) : SolveWithCeres(g, o.ceres);
+    iterations += r.iterations;
+    chi2 = r.final_chi2;
+  }
+  state.counters["iterations"] = iterations / state.iterations();
+  state.counters["chi2"] = chi2;
+}
+
+template <typename Pose>
+Pose PoseOf(const PoseGraph& g, int64_t id) {
+  if constexpr (std::is_same_v<Pose, SE2>) {
+    return ToSE2(g.vertex(id).x);
+  } else {
+    return ToSE3(g.vertex(id).x);
+  }
+}
+
+// The true pose nearest to pose i among those at least 20 steps older: where
+// a place recognizer would close a loop.
+int64_t NearestOlder(const PoseGraph& truth, int64_t i) {
+  const auto t = [&](int64_t id) -> Eigen::Vector3d {
+    const PoseParams& x = truth.vertex(id).x;
+    return {x[0], x[1], truth.dimension() == 3 ? x[2] : 0.0};
+  };
+  int64_t best = 0;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (int64_t j = 0; j + 20 < i; ++j) {
+    const double d = (t(j) - t(i)).squaredNorm();
+    if (d < best_d) best_d = d, best = j;
+  }
+  return best;
+}
+
+template <typename Pose>
+void AddOnePose(IncrementalOptimizer& opt, const Simulation& sim, int64_t i, int64_t loop_to) {
+  const auto& edges = sim.noisy.edges();
+  const Edge* odometry = nullptr;
+  for (const Edge& e : edges)
+    if (e.kind == EdgeKind::kOdometry && e.to == i) odometry = &e;
+  Pose z;
+  if constexpr (std::is_same_v<Pose, SE2>) z = ToSE2(odometry->z); else z = ToSE3(odometry->z);
+  opt.AddPose(i, PoseOf<Pose>(opt.graph(), i - 1) * z);
+  opt.AddEdge(*odometry);
+  if (loop_to < 0) return;
+  // A loop closure measured exactly (from the truth), so that it pulls
+  // against the drift the odometry accumulated.
+  const int64_t j = loop_to;
+  Edge lc = *odometry;
+  lc.kind = EdgeKind::kLoopClosure;
+  lc.from = j;
+  lc.to = i;
+  lc.z = ToParams(PoseOf<Pose>(sim.truth, j).Between(PoseOf<Pose>(sim.truth, i)));
+  opt.AddEdge(lc);
+}
+
+void BM_AddPoseAndReoptimize(benchmark::State& state) {
+  const int dim = static_cast<int>(state.range(0));
+  const SolverKind solver = state.range(1) == 1 ? SolverKind::kGaussNewton : SolverKind::kCeres;
+  const bool loop = state.range(2) == 1;
+  IncrementalOptions o = Options();
+  // 0: every re-optimisation computes a fresh AMD ordering.
+  if (state.range(3) == 0) o.reorder_growth = -1;
+  const Simulation& sim = Sim(dim);
+  IncrementalOptimizer opt(Prefix(sim.noisy, kPoses), o);
+  opt.Optimize(solver);
+  int64_t next = kPoses;
+  double iterations = 0, setup = 0;
+  for (auto _ : state) {
+    if (next >= kPoses + kExtra) {
+      state.SkipWithError("out of simulated poses");
+      break;
+    }
+    state.PauseTiming();
+    // Finding the loop partner is the front-end's job: not timed.
+    const int64_t loop_to = loop ? NearestOlder(sim.truth, next) : -1;
+    state.ResumeTiming();
+    if (dim == 2) {
+      AddOnePose<SE2>(opt, sim, next, loop_to);
+    } else {
+      AddOnePose<SE3>(opt, sim, next, loop_to);
+    }
+    const SolveResult r = opt.Optimize(solver);
+    iterations += r.iterations;
+    setup += r.setup_time_s;
+    ++next;
+  }
+  state.counters["iterations"] = iterations / state.iterations();
+  state.counters["setup_ms"] = 1e3 * setup / state.iterations();
+  state.counters["poses"] = static_cast<double>(opt.graph().vertices().size());
+  state.counters["reorderings"] = opt.gauss_newton_reorderings();
+}
+
+BENCHMARK(BM_ColdSolve)->Args({2, 0})->Args({2, 1})->Args({3, 0})->Args({3, 1})
+    ->Iterations(3)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_AddPoseAndReoptimize)
+    ->Args({2, 0, 0, 1})->Args({2, 0, 1, 1})
+    ->Args({2, 1, 0, 1})->Args({2, 1, 1, 1})->Args({2, 1, 1, 0})
+    ->Args({3, 0, 0, 1})->Args({3, 0, 1, 1})
+    ->Args({3, 1, 0, 1})->Args({3, 1, 1, 1})->Args({3, 1, 1, 0})
+    ->Iterations(20)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace cairn
+
+BENCHMARK_MAIN();

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <iostream>
 #include <stdexcept>
 #include <thread>
@@ -172,7 +174,7 @@ CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_cl
     problem_->AddParameterBlock(v.x.data(), size, manifold_.get());
     if (held[i]) {
       problem_->SetParameterBlockConstant(v.x.data());
-      if (!v.fixed) gauge_ = v.id;
+      if (!v.fixed && !gauge_) gauge_ = v.id;  // the first component's
     }
   }
 
@@ -222,9 +224,22 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
   SolveResult result;
   result.solver = "ceres";
 
+  // A non-finite start would only make Ceres fail deep inside; say which
+  // vertex it is instead.
+  if (const auto bad = FirstNonFiniteVertex(graph)) {
+    result.initial_chi2 = result.final_chi2 = std::numeric_limits<double>::quiet_NaN();
+    result.termination = "failure";
+    result.message = "vertex " + std::to_string(*bad) + " has a non-finite estimate";
+    result.time_s = Seconds(start);
+    return result;
+  }
   CeresGraphProblem graph_problem(graph, options.loop_closure_loss);
   // After the problem is built: that normalises the quaternions g2o would.
   result.initial_chi2 = Chi2(graph);
+  // The start, kept to fall back on should the solve end worse or non-finite.
+  std::vector<PoseParams> start_estimate;
+  start_estimate.reserve(graph.vertices().size());
+  for (const Vertex& v : graph.vertices()) start_estimate.push_back(v.x);
 
   ceres::Solver::Options so = MakeSolverOptions(graph, options);
   result.linear_solver = std::string("SPARSE_NORMAL_CHOLESKY/") +
@@ -237,6 +252,24 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
   ceres::Solve(so, &graph_problem.problem(), &summary);
 
   result.final_chi2 = Chi2(graph);
+  const bool finite = !FirstNonFiniteVertex(graph) && std::isfinite(result.final_chi2);
+  // Ceres's own cost includes the robust loss, which g2o's chi2 does not:
+  // that is the objective that must not rise.
+  const bool worse = summary.final_cost > summary.initial_cost;
+  if (!finite || worse) {
+    size_t k = 0;
+    for (Vertex& v : graph.vertices()) v.x = start_estimate[k++];
+    result.final_chi2 = Chi2(graph);
+    result.termination = "failure";
+    result.message = std::string(finite ? "the solve ended with a higher cost"
+                                        : "the solve ended with a non-finite estimate") +
+                     "; the starting estimate is kept (Ceres: " + summary.message + ")";
+    result.converged = false;
+    result.usable = std::isfinite(result.final_chi2);
+    result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+    result.time_s = Seconds(start);
+    return result;
+  }
   // Ceres counts its starting point (iteration 0) as a successful step.
   result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
   result.linearize_time_s = summary.jacobian_evaluation_time_in_seconds;

@@ -1,5 +1,9 @@
 #include "backend/graph_factors.h"
 
+#include <cmath>
+
+#include "backend/initialization.h"
+
 #include "factors/se2_factors.h"
 #include "factors/se3_factors.h"
 
@@ -23,8 +27,22 @@ std::unique_ptr<ceres::LossFunction> MakeLoss(const RobustLoss& loss) {
     case RobustLoss::kNone: return nullptr;
     case RobustLoss::kHuber: return std::make_unique<ceres::HuberLoss>(loss.delta);
     case RobustLoss::kCauchy: return std::make_unique<ceres::CauchyLoss>(loss.delta);
+    case RobustLoss::kDcs: return std::make_unique<DcsLoss>(loss.delta);
   }
   return nullptr;
+}
+
+void DcsLoss::Evaluate(double s, double rho[3]) const {
+  if (s <= phi_) {
+    rho[0] = s;
+    rho[1] = 1;
+    rho[2] = 0;
+    return;
+  }
+  const double d = phi_ + s;
+  rho[0] = phi_ * (3 * s - phi_) / d;
+  rho[1] = 4 * phi_ * phi_ / (d * d);
+  rho[2] = -8 * phi_ * phi_ / (d * d * d);
 }
 
 std::vector<bool> TouchedVertices(const PoseGraph& graph) {
@@ -40,14 +58,29 @@ std::vector<bool> HeldConstant(const PoseGraph& graph) {
   const auto& vertices = graph.vertices();
   const std::vector<bool> touched = TouchedVertices(graph);
   std::vector<bool> held(vertices.size(), false);
-  bool any = false;
-  for (size_t i = 0; i < vertices.size(); ++i) any |= held[i] = touched[i] && vertices[i].fixed;
-  if (any || graph.CountEdges(EdgeKind::kPrior) > 0) return held;
-  long lowest = -1;
-  for (size_t i = 0; i < vertices.size(); ++i)
-    if (touched[i] && (lowest < 0 || vertices[i].id < vertices[lowest].id)) lowest = static_cast<long>(i);
-  if (lowest >= 0) held[lowest] = true;
+  std::vector<bool> anchored(vertices.size(), false);  // by a prior
+  for (size_t i = 0; i < vertices.size(); ++i) held[i] = touched[i] && vertices[i].fixed;
+  for (const Edge& e : graph.edges())
+    if (e.IsPrior()) anchored[graph.VertexIndex(e.from)] = true;
+  for (const std::vector<int64_t>& component : ConnectedComponents(graph)) {
+    bool needs_gauge = true;
+    long lowest = -1;  // components come sorted: the first touched is the lowest
+    for (int64_t id : component) {
+      const size_t i = graph.VertexIndex(id);
+      if (held[i] || anchored[i]) needs_gauge = false;
+      if (lowest < 0 && touched[i]) lowest = static_cast<long>(i);
+    }
+    if (needs_gauge && lowest >= 0) held[lowest] = true;
+  }
   return held;
+}
+
+std::optional<int64_t> FirstNonFiniteVertex(const PoseGraph& graph) {
+  const int size = graph.ParameterSize();
+  for (const Vertex& v : graph.vertices())
+    for (int k = 0; k < size; ++k)
+      if (!std::isfinite(v.x[k])) return v.id;
+  return std::nullopt;
 }
 
 }  // namespace cairn

@@ -6,6 +6,7 @@
 #include <ceres/loss_function.h>
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "backend/pose_graph.h"
@@ -31,13 +32,36 @@ class BorrowedLoss final : public ceres::LossFunction {
   const ceres::LossFunction* loss_;
 };
 
+// Dynamic covariance scaling as a proper loss on s = |r|^2: DCS scales the
+// whitened residual by w = min(1, 2 phi / (phi + s)), i.e. weights the
+// squared error by w^2, and IRLS with weight rho'(s) = w^2 minimises
+//   rho(s) = s                              for s <= phi
+//   rho(s) = phi (3 s - phi) / (phi + s)    beyond (continuous to rho'')
+// so that Ceres (which uses rho, rho', rho'') and the Gauss-Newton path
+// (which reweights by rho') minimise the same function. It tends to 3 phi:
+// an outlier costs at most three times the width.
+class DcsLoss final : public ceres::LossFunction {
+ public:
+  explicit DcsLoss(double phi) : phi_(phi) {}
+  void Evaluate(double s, double rho[3]) const override;
+
+ private:
+  double phi_;
+};
+
 // Per vertex (in vertices() order): true when some edge touches it, i.e.
 // it is a parameter of the problem.
 std::vector<bool> TouchedVertices(const PoseGraph& graph);
 
 // Per vertex (in vertices() order): held constant during optimisation. FIX
-// vertices are held; when none is and no prior anchors the graph, the
-// lowest-id vertex that an edge touches is held as the gauge.
+// vertices are held; in each connected component that no FIX vertex and no
+// prior anchors, the lowest-id vertex that an edge touches is held as that
+// component's gauge, so that a graph in several pieces never leaves the
+// normal equations singular.
 std::vector<bool> HeldConstant(const PoseGraph& graph);
+
+// The id of the first vertex whose estimate holds a NaN or infinity: both
+// solvers refuse such a start with a message naming it.
+std::optional<int64_t> FirstNonFiniteVertex(const PoseGraph& graph);
 
 }  // namespace cairn

@@ -1,6 +1,8 @@
 #include "backend/graph_gauss_newton.h"
 
 #include <chrono>
+#include <limits>
+#include <string>
 
 #include "backend/chi2.h"
 #include "backend/graph_factors.h"
@@ -9,6 +11,14 @@
 namespace cairn {
 SolveResult SolveGaussNewton(PoseGraph& graph, const GaussNewtonOptions& options) {
   const auto start = std::chrono::steady_clock::now();
+  if (const auto bad = FirstNonFiniteVertex(graph)) {
+    SolveResult result;
+    result.solver = "gn";
+    result.initial_chi2 = result.final_chi2 = std::numeric_limits<double>::quiet_NaN();
+    result.termination = "failure";
+    result.message = "vertex " + std::to_string(*bad) + " has a non-finite estimate";
+    return result;
+  }
   const auto manifold =
       graph.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
   const auto loop_closure_loss = MakeLoss(options.loop_closure_loss);

@@ -57,9 +57,11 @@ RobustLoss ParseRobustLoss(const std::string& text) {
     loss.kind = RobustLoss::kHuber;
   } else if (name == "cauchy") {
     loss.kind = RobustLoss::kCauchy;
+  } else if (name == "dcs") {
+    loss.kind = RobustLoss::kDcs;
   } else {
     throw std::invalid_argument("unknown robust loss '" + text +
-                                "' (expected none, huber:DELTA or cauchy:DELTA)");
+                                "' (expected none, huber:DELTA, cauchy:DELTA or dcs:PHI)");
   }
   if (colon == std::string::npos)
     throw std::invalid_argument("robust loss '" + text + "' needs a width: " + name + ":DELTA");
@@ -77,6 +79,7 @@ std::string ToString(const RobustLoss& loss) {
     case RobustLoss::kNone: return "none";
     case RobustLoss::kHuber: std::snprintf(buf, sizeof buf, "huber:%g", loss.delta); break;
     case RobustLoss::kCauchy: std::snprintf(buf, sizeof buf, "cauchy:%g", loss.delta); break;
+    case RobustLoss::kDcs: std::snprintf(buf, sizeof buf, "dcs:%g", loss.delta); break;
   }
   return buf;
 }

@@ -14,12 +14,15 @@ namespace cairn {
 // A robust loss applied to loop closures only: odometry and priors are
 // trusted, wrong loop closures are what robust losses are for.
 struct RobustLoss {
-  enum Kind { kNone, kHuber, kCauchy };
+  // kDcs: dynamic covariance scaling (Agarwal et al. 2013), the kernel made
+  // for pose graphs; its width PHI is on the squared error (chi2), as in the
+  // paper, not on the norm.
+  enum Kind { kNone, kHuber, kCauchy, kDcs };
   Kind kind = kNone;
-  double delta = 1.0;  // on the whitened residual's norm, as g2o's kernels
+  double delta = 1.0;  // on the whitened residual's norm, as g2o's kernels (DCS: on chi2)
 };
 
-// Parses "none", "huber:DELTA" or "cauchy:DELTA" (DELTA > 0); throws
+// Parses "none", "huber:DELTA", "cauchy:DELTA" or "dcs:PHI" (> 0); throws
 // std::invalid_argument with a message naming the bad text.
 RobustLoss ParseRobustLoss(const std::string& text);
 std::string ToString(const RobustLoss& loss);

@@ -18,12 +18,14 @@ with open(sys.argv[1], "w") as f:
     x = y = th = 0.0
     for i in range(n):
         f.write(f"VERTEX_SE2 {i} {x:.6f} {y:.6f} {th:.6f}\n")
-        x += math.cos(th); y += math.sin(th); th = math.remainder(th + random.uniform(-0.3, 0.3), 2 * math.pi)
+        x += math.cos(th); y += math.sin(th)
+        th = math.remainder(th + random.uniform(-0.3, 0.3), 2 * math.pi)
     for i in range(n - 1):
         f.write(f"EDGE_SE2 {i} {i+1} 1 0 {random.uniform(-0.3, 0.3):.6f} {info}\n")
     for k in range(n - 1):
         a = random.randrange(n - 2); b = random.randrange(a + 2, n)
-        f.write(f"EDGE_SE2 {a} {b} {random.uniform(-9, 9):.6f} {random.uniform(-9, 9):.6f} {random.uniform(-3, 3):.6f} {info}\n")
+        f.write(f"EDGE_SE2 {a} {b} {random.uniform(-9, 9):.6f} {random.uniform(-9, 9):.6f} "
+                f"{random.uniform(-3, 3):.6f} {info}\n")
 PY
 fi
 ls -l "$FILE"

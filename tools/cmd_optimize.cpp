@@ -9,6 +9,7 @@
 #include "backend/covariance.h"
 #include "backend/graph_gauss_newton.h"
 #include "backend/graph_io.h"
+#include "backend/outliers.h"
 #include "backend/solve_result.h"
 #include "backend/svg_plot.h"
 #include "tools/args.h"
@@ -53,7 +54,7 @@ int RunOptimize(int argc, char** argv) {
   CeresOptions o;
   double gn_damping = GaussNewtonOptions().damping;
   ArgParser args(
-      "optimize IN -o OUT.g2o [--solver ceres|gn] [--robust huber:D|cauchy:D] [options]",
+      "optimize IN -o OUT.g2o [--solver ceres|gn] [--robust huber:D|cauchy:D|dcs:PHI] [options]",
       "Optimises a g2o or TORO pose graph from the estimate in the file and writes the\n"
       "result as g2o (to a temporary file, renamed when complete). Vertices marked\n"
       "FIX stay put; when none is and no prior anchors the graph, the lowest-id\n"
@@ -73,8 +74,9 @@ int RunOptimize(int argc, char** argv) {
               "suitesparse (CHOLMOD), eigen (simplicial LDLT), cxsparse");
   args.Option("max-iterations", &o.max_iterations, "N", "stop after N iterations");
   args.Option("robust", &robust, "KIND:DELTA",
-              "robust loss on loop closures: none, huber:DELTA or cauchy:DELTA (DELTA on the "
-              "whitened error, as g2o's kernels)");
+              "robust loss on loop closures: none, huber:DELTA, cauchy:DELTA (DELTA on the "
+              "whitened error, as g2o's kernels) or dcs:PHI (dynamic covariance scaling, PHI "
+              "on chi2)");
   args.Option("threads", &o.threads, "N", "threads for linearisation (0: one per core)");
   args.Option("function-tolerance", &o.function_tolerance, "TOL",
               "stop when one step lowers chi2 by less than this fraction");
@@ -103,6 +105,16 @@ int RunOptimize(int argc, char** argv) {
               "vertices at the optimum, e.g. 3,17,42, and add them to the --report JSON");
   args.Option("plot", &plot, "FILE.svg",
               "draw the trajectory before and after, loop closures in red (3D: x-y view)");
+  bool reject_outliers = false;
+  OutlierRejectionOptions rejection;
+  args.Flag("reject-outliers", &reject_outliers,
+            "decide which loop closures are wrong (graduated non-convexity, truncated least "
+            "squares) and drop them; the report lists them as rejected_loop_closures");
+  args.Option("outlier-threshold", &rejection.threshold_chi2, "CHI2",
+              "with --reject-outliers: the chi2 above which a loop closure is wrong (0: the "
+              "--outlier-confidence quantile for 3 or 6 dof)");
+  args.Option("outlier-confidence", &rejection.confidence, "P",
+              "with --reject-outliers: quantile of chi2 taken as the threshold");
   args.Flag("quiet", &quiet, "no progress lines and no summary");
   args.Flag("strict", &strict, "refuse tags cairn does not know instead of skipping them");
   int code = 0;
@@ -154,7 +166,33 @@ int RunOptimize(int argc, char** argv) {
   // Only copied when asked for: the "before" panel of the plot.
   const PoseGraph before = plot.empty() ? PoseGraph(graph.dimension()) : graph;
 
-  const SolveResult result = solver == "gn" ? SolveGaussNewton(graph, gn) : SolveWithCeres(graph, o);
+  std::vector<VertexPair> rejected;
+  SolveResult result;
+  if (reject_outliers) {
+    if (!(rejection.confidence > 0 && rejection.confidence < 1) || rejection.threshold_chi2 < 0) {
+      PrintError("--outlier-confidence must lie in (0, 1) and --outlier-threshold be >= 0");
+      return 2;
+    }
+    // The inner solves are many: one progress line per GNC round instead.
+    rejection.verbose = !quiet;
+    CeresOptions inner = o;
+    GaussNewtonOptions inner_gn = gn;
+    inner.verbose = inner_gn.verbose = false;
+    const OutlierRejectionResult r = SolveRejectingOutliers(
+        graph,
+        [&](PoseGraph& g) {
+          return solver == "gn" ? SolveGaussNewton(g, inner_gn) : SolveWithCeres(g, inner);
+        },
+        rejection);
+    result = r.solve;
+    rejected = r.rejected;
+    if (!quiet)
+      std::fprintf(stderr, "%s: rejected %zu of %zu loop closures (chi2 threshold %.4g, %d solves)\n",
+                   in.c_str(), rejected.size(), graph.CountEdges(EdgeKind::kLoopClosure),
+                   r.threshold_chi2, r.rounds);
+  } else {
+    result = solver == "gn" ? SolveGaussNewton(graph, gn) : SolveWithCeres(graph, o);
+  }
   // A failed solve leaves no output behind (the report still says why).
   if (result.usable) WriteFileAtomically(out, [&](std::ostream& os) { WriteG2o(graph, os); });
 
@@ -199,6 +237,15 @@ int RunOptimize(int argc, char** argv) {
     std::ostringstream json;
     WriteReportJson(result, json, context);
     std::string text = json.str();
+    if (reject_outliers) {
+      // An array has no place among the string-valued context: spliced in
+      // after the opening brace.
+      std::string pairs = "  \"rejected_loop_closures\": [";
+      for (size_t i = 0; i < rejected.size(); ++i)
+        pairs += (i ? ", [" : "[") + std::to_string(rejected[i].first) + ", " +
+                 std::to_string(rejected[i].second) + "]";
+      text.insert(text.find('{') + 2, pairs + "],\n");
+    }
     if (!covariances.empty()) {
       // Spliced in before the closing brace: the shared report writer knows
       // nothing of covariances.

@@ -1,0 +1,313 @@
+// Robustness: the DCS kernel (its derivatives, and the same optimum from
+// Ceres and the Gauss-Newton path with every kernel), a gauge per connected
+// component, non-finite starts, `cairn corrupt` and outlier rejection by GNC.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "backend/ceres_solver.h"
+#include "backend/chi2.h"
+#include "backend/graph_factors.h"
+#include "backend/graph_gauss_newton.h"
+#include "backend/graph_io.h"
+#include "backend/outliers.h"
+#include "backend/simulate.h"
+#include "test_util.h"
+
+namespace cairn {
+namespace {
+
+CeresOptions QuietCeres() {
+  CeresOptions o;
+  o.function_tolerance = 1e-14;
+  o.gradient_tolerance = 1e-14;
+  o.parameter_tolerance = 1e-14;
+  o.max_iterations = 200;
+  return o;
+}
+GaussNewtonOptions QuietGn() {
+  GaussNewtonOptions o;
+  o.function_tolerance = 1e-14;
+  o.gradient_tolerance = 1e-14;
+  o.parameter_tolerance = 1e-14;
+  o.max_iterations = 200;
+  return o;
+}
+
+double RmsPositionDifference(const PoseGraph& a, const PoseGraph& b) {
+  double sum = 0;
+  for (size_t i = 0; i < a.vertices().size(); ++i)
+    for (int k = 0; k < a.dimension(); ++k)
+      sum += std::pow(a.vertices()[i].x[k] - b.vertices()[i].x[k], 2);
+  return std::sqrt(sum / a.vertices().size());
+}
+
+double MaxPositionDifference(const PoseGraph& a, const PoseGraph& b) {
+  double worst = 0;
+  for (size_t i = 0; i < a.vertices().size(); ++i)
+    for (int k = 0; k < a.dimension(); ++k)
+      worst = std::max(worst, std::abs(a.vertices()[i].x[k] - b.vertices()[i].x[k]));
+  return worst;
+}
+
+TEST(Dcs, DerivativesMatchNumericDifferentiation) {
+  const DcsLoss loss(2.5);
+  for (double s : {0.1, 1.0, 2.4, 2.6, 5.0, 40.0, 1e4}) {
+    double rho[3], plus[3], minus[3];
+    const double h = 1e-6 * std::max(1.0, s);
+    loss.Evaluate(s, rho);
+    loss.Evaluate(s + h, plus);
+    loss.Evaluate(s - h, minus);
+    EXPECT_NEAR(rho[1], (plus[0] - minus[0]) / (2 * h), 1e-6) << "s " << s;
+    EXPECT_NEAR(rho[2], (plus[1] - minus[1]) / (2 * h), 1e-6) << "s " << s;
+    // The DCS weight: the squared scale min(1, 2 phi / (phi + s)).
+    const double scale = std::min(1.0, 2 * 2.5 / (2.5 + s));
+    EXPECT_NEAR(rho[1], scale * scale, 1e-12) << "s " << s;
+  }
+  // Continuous at phi, and bounded by 3 phi.
+  double below[3], above[3];
+  loss.Evaluate(2.5 - 1e-12, below);
+  loss.Evaluate(2.5 + 1e-12, above);
+  EXPECT_NEAR(below[0], above[0], 1e-9);
+  EXPECT_NEAR(below[1], above[1], 1e-9);
+  loss.Evaluate(1e12, above);
+  EXPECT_LT(above[0], 3 * 2.5);
+}
+
+TEST(Dcs, ParsesAndPrints) {
+  const RobustLoss d = ParseRobustLoss("dcs:4");
+  EXPECT_EQ(d.kind, RobustLoss::kDcs);
+  EXPECT_DOUBLE_EQ(d.delta, 4);
+  EXPECT_EQ(ToString(d), "dcs:4");
+  EXPECT_NE(dynamic_cast<DcsLoss*>(MakeLoss(d).get()), nullptr);
+  EXPECT_THROW(ParseRobustLoss("dcs:-1"), std::invalid_argument);
+  EXPECT_THROW(ParseRobustLoss("dcs"), std::invalid_argument);
+}
+
+// IRLS (Gauss-Newton reweighting by rho') and Ceres (rho with its
+// curvature correction) minimise the same robust cost: same optimum.
+TEST(RobustKernels, GaussNewtonAndCeresAgreeWithEveryKernel) {
+  for (int dim : {2, 3}) {
+    SimulationOptions so;
+    so.dimension = dim;
+    so.poses = dim == 2 ? 300 : 250;
+    so.outliers = 5;
+    so.seed = 5;
+    const Simulation sim = Simulate(so);
+    for (const char* kernel : {"huber:1", "cauchy:1", "dcs:1"}) {
+      PoseGraph by_ceres = sim.noisy, by_gn = sim.noisy;
+      CeresOptions co = QuietCeres();
+      GaussNewtonOptions go = QuietGn();
+      co.loop_closure_loss = go.loop_closure_loss = ParseRobustLoss(kernel);
+      const SolveResult rc = SolveWithCeres(by_ceres, co);
+      const SolveResult rg = SolveGaussNewton(by_gn, go);
+      ASSERT_TRUE(rc.usable && rg.usable) << kernel;
+      EXPECT_LT(MaxPositionDifference(by_ceres, by_gn), 1e-3)
+          << "dim " << dim << " " << kernel << ": " << rc.message << " / " << rg.message;
+      EXPECT_NEAR(rc.final_chi2, rg.final_chi2, 1e-5 * rc.final_chi2) << kernel;
+    }
+  }
+}
+
+TEST(RobustKernels, DcsShrugsOffWrongLoopClosures) {
+  SimulationOptions so;
+  so.poses = 300;
+  so.outliers = 10;
+  so.seed = 3;
+  const Simulation sim = Simulate(so);
+  PoseGraph plain = sim.noisy, dcs = sim.noisy;
+  SolveWithCeres(plain, QuietCeres());
+  CeresOptions o = QuietCeres();
+  o.loop_closure_loss = ParseRobustLoss("dcs:1");
+  SolveWithCeres(dcs, o);
+  EXPECT_LT(MaxPositionDifference(dcs, sim.truth), 0.5 * MaxPositionDifference(plain, sim.truth));
+}
+
+// Two chains no edge joins: each needs its own gauge, else H is singular.
+PoseGraph TwoChains() {
+  PoseGraph g(2);
+  for (int64_t id = 0; id < 10; ++id) g.AddVertex(id, SE2(0.9 * id, 0.1, 0.02 * id));
+  for (int64_t id = 100; id < 110; ++id) g.AddVertex(id, SE2(0.1, 1.1 * (id - 100), 0.0));
+  auto between = [&](int64_t a, int64_t b, const SE2& z) {
+    Edge e;
+    e.kind = KindForBetween(a, b);
+    e.from = a;
+    e.to = b;
+    e.z = ToParams(z);
+    g.AddEdge(e);
+  };
+  for (int64_t id = 0; id < 9; ++id) between(id, id + 1, SE2(1, 0, 0));
+  for (int64_t id = 100; id < 109; ++id) between(id, id + 1, SE2(0, 1, 0));
+  between(0, 5, SE2(5, 0, 0));
+  return g;
+}
+
+TEST(Components, EachComponentGetsItsOwnGauge) {
+  const PoseGraph g = TwoChains();
+  const std::vector<bool> held = HeldConstant(g);
+  EXPECT_TRUE(held[g.VertexIndex(0)]);
+  EXPECT_TRUE(held[g.VertexIndex(100)]);
+  EXPECT_EQ(std::count(held.begin(), held.end(), true), 2);
+
+  PoseGraph by_ceres = g, by_gn = g;
+  const SolveResult rc = SolveWithCeres(by_ceres, QuietCeres());
+  const SolveResult rg = SolveGaussNewton(by_gn, QuietGn());
+  EXPECT_TRUE(rc.usable && rc.converged) << rc.message;
+  EXPECT_TRUE(rg.usable && rg.converged) << rg.message;
+  EXPECT_LT(rc.final_chi2, 1e-12);
+  EXPECT_LT(rg.final_chi2, 1e-12);
+  // Each gauge keeps its pose.
+  EXPECT_EQ(by_gn.vertex(100).x, g.vertex(100).x);
+  EXPECT_EQ(by_ceres.vertex(100).x, g.vertex(100).x);
+}
+
+TEST(Components, APriorAnchorsItsComponentOnly) {
+  PoseGraph g = TwoChains();
+  Edge prior;
+  prior.kind = EdgeKind::kPrior;
+  prior.from = 104;
+  prior.z = ToParams(SE2(0, 4, 0));
+  g.AddEdge(prior);
+  const std::vector<bool> held = HeldConstant(g);
+  EXPECT_TRUE(held[g.VertexIndex(0)]);
+  EXPECT_EQ(std::count(held.begin(), held.end(), true), 1);
+  const SolveResult r = SolveGaussNewton(g, QuietGn());
+  EXPECT_TRUE(r.usable) << r.message;
+  EXPECT_NEAR(g.vertex(104).x[1], 4, 1e-9);
+}
+
+TEST(Divergence, NonFiniteStartIsRefusedNamingTheVertex) {
+  for (bool gn : {false, true}) {
+    PoseGraph g = TwoChains();
+    g.vertex(7).x[0] = std::nan("");
+    const SolveResult r = gn ? SolveGaussNewton(g, QuietGn()) : SolveWithCeres(g, QuietCeres());
+    EXPECT_EQ(r.termination, "failure");
+    EXPECT_FALSE(r.usable);
+    EXPECT_NE(r.message.find("vertex 7"), std::string::npos) << r.message;
+  }
+}
+
+TEST(Divergence, SolversNeverEndWorseThanTheyStart) {
+  SimulationOptions so;
+  so.poses = 200;
+  so.outliers = 20;
+  so.seed = 9;
+  const Simulation sim = Simulate(so);
+  for (bool gn : {false, true}) {
+    PoseGraph g = sim.noisy;
+    const double start = Chi2(g);
+    CeresOptions co = QuietCeres();
+    GaussNewtonOptions go = QuietGn();
+    co.max_iterations = go.max_iterations = 3;
+    const SolveResult r = gn ? SolveGaussNewton(g, go) : SolveWithCeres(g, co);
+    EXPECT_TRUE(std::isfinite(r.final_chi2));
+    EXPECT_LE(r.final_chi2, start);
+    EXPECT_DOUBLE_EQ(Chi2(g), r.final_chi2);
+  }
+}
+
+TEST(Corrupt, AddsLoopClosuresWithTheMedianInformation) {
+  SimulationOptions so;
+  so.poses = 300;
+  so.seed = 4;
+  PoseGraph g = Simulate(so).noisy;
+  const size_t before = g.edges().size();
+  const size_t closures = g.CountEdges(EdgeKind::kLoopClosure);
+  PoseGraph again = g;
+  const auto added = AddWrongLoopClosures(g, 25, 11);
+  ASSERT_EQ(added.size(), 25u);
+  EXPECT_EQ(g.edges().size(), before + 25);
+  EXPECT_EQ(g.CountEdges(EdgeKind::kLoopClosure), closures + 25);
+  std::set<VertexPair> existing;
+  for (size_t k = 0; k < before; ++k)
+    if (!g.edges()[k].IsPrior()) existing.insert(std::minmax(g.edges()[k].from, g.edges()[k].to));
+  for (const auto& [a, b] : added) {
+    EXPECT_GE(b - a, 2);
+    EXPECT_EQ(existing.count({a, b}), 0u);
+  }
+  EXPECT_TRUE(g.edges().back().information.isApprox(g.edges()[before - 1].information) ||
+              g.edges().back().information.trace() > 0);
+  EXPECT_EQ(AddWrongLoopClosures(again, 25, 11), added);  // the seed decides
+  EXPECT_THROW(AddWrongLoopClosures(g, -1, 1), std::invalid_argument);
+}
+
+TEST(Gnc, ChiSquaredQuantiles) {
+  EXPECT_NEAR(ChiSquaredQuantile(0.99, 3), 11.345, 0.05);
+  EXPECT_NEAR(ChiSquaredQuantile(0.99, 6), 16.812, 0.05);
+  EXPECT_NEAR(ChiSquaredQuantile(0.95, 3), 7.815, 0.05);
+}
+
+TEST(Gnc, RejectsTheWrongLoopClosuresWithEitherSolver) {
+  for (int dim : {2, 3}) {
+    SimulationOptions so;
+    so.dimension = dim;
+    so.poses = dim == 2 ? 400 : 250;
+    so.seed = 12;
+    const Simulation sim = Simulate(so);
+    PoseGraph reference = sim.noisy;
+    SolveWithCeres(reference, QuietCeres());
+    PoseGraph corrupted = sim.noisy;
+    const int wrong = static_cast<int>(corrupted.CountEdges(EdgeKind::kLoopClosure) / 3);
+    const auto added = AddWrongLoopClosures(corrupted, wrong, 3);
+    const std::set<VertexPair> truth(added.begin(), added.end());
+    for (bool gn : {false, true}) {
+      PoseGraph g = corrupted;
+      const auto result = SolveRejectingOutliers(g, [&](PoseGraph& x) {
+        return gn ? SolveGaussNewton(x, GaussNewtonOptions()) : SolveWithCeres(x, CeresOptions());
+      });
+      size_t caught = 0;
+      for (const auto& p : result.rejected) caught += truth.count(p);
+      EXPECT_EQ(caught, truth.size()) << "dim " << dim << (gn ? " gn" : " ceres");
+      EXPECT_LE(result.rejected.size() - caught,
+                0.05 * sim.noisy.CountEdges(EdgeKind::kLoopClosure));
+      EXPECT_LT(RmsPositionDifference(g, reference), 0.05) << "dim " << dim << ", good rejected " << result.rejected.size() - caught;
+    }
+  }
+}
+
+TEST(Cli, CorruptThenOptimizeRejectingOutliers) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("cairn_robust_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  SimulationOptions so;
+  so.poses = 300;
+  so.seed = 8;
+  WriteG2o(Simulate(so).noisy, (dir / "clean.g2o").string());
+  int status = 0;
+  const std::string tool = CAIRN_TOOL;
+  testing::RunCommand(tool + " corrupt " + (dir / "clean.g2o").string() + " -o " +
+                          (dir / "bad.g2o").string() + " --outliers 12 --seed 5 2>&1",
+                      &status);
+  ASSERT_EQ(status, 0);
+  std::ifstream list(dir / "bad.g2o.outliers.txt");
+  std::string line;
+  std::set<std::string> wrong;
+  while (std::getline(list, line))
+    if (!line.empty() && line[0] != '#') wrong.insert(line);
+  ASSERT_EQ(wrong.size(), 12u);
+  testing::RunCommand(tool + " optimize " + (dir / "bad.g2o").string() + " -o " +
+                          (dir / "out.g2o").string() + " --quiet --reject-outliers --report " +
+                          (dir / "r.json").string() + " 2>&1",
+                      &status);
+  ASSERT_EQ(status, 0);
+  std::ifstream in(dir / "r.json");
+  const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t at = json.find("\"rejected_loop_closures\": [");
+  ASSERT_NE(at, std::string::npos) << json;
+  for (const std::string& pair : wrong) {
+    std::istringstream ss(pair);
+    long a, b;
+    ss >> a >> b;
+    EXPECT_NE(json.find("[" + std::to_string(a) + ", " + std::to_string(b) + "]"),
+              std::string::npos)
+        << pair;
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace cairn

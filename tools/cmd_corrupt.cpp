@@ -1,0 +1,70 @@
+// cairn corrupt: add wrong loop closures to a pose graph, to measure how a
+// solver copes with them.
+#include <cmath>
+#include <cstdio>
+#include <ostream>
+
+#include "backend/graph_io.h"
+#include "backend/outliers.h"
+#include "tools/args.h"
+#include "tools/command.h"
+
+namespace cairn::tools {
+namespace {
+
+int RunCorrupt(int argc, char** argv) {
+  std::string in, out, list;
+  int outliers = -1, seed = 1;
+  double fraction = -1;
+  ArgParser args(
+      "corrupt IN -o OUT.g2o (--outliers N | --fraction F) [--seed S] [--list FILE]",
+      "Adds wrong loop closures to a g2o or TORO pose graph: random pairs of\n"
+      "non-consecutive vertices not yet joined, random measurements (translation\n"
+      "within the largest loop closure's, rotation uniform) and the information of\n"
+      "the file's median loop closure. Writes the graph as g2o and the pairs it added,\n"
+      "one 'FROM TO' a line, to OUT.g2o.outliers.txt (or --list).");
+  args.Positional("IN", &in, "a .g2o or TORO .graph file");
+  args.Option("output", &out, "OUT.g2o", "where to write the corrupted graph (g2o)");
+  args.Alias("-o", "output");
+  args.Option("outliers", &outliers, "N", "how many wrong loop closures to add");
+  args.Option("fraction", &fraction, "F",
+              "as many wrong loop closures as F times the file's loop closures (rounded)");
+  args.Option("seed", &seed, "S", "seed of the random choices");
+  args.Option("list", &list, "FILE", "where to write the added pairs");
+  int code = 0;
+  if (!args.Parse(argc, argv, &code)) return code;
+  if (out.empty()) {
+    PrintError("corrupt needs an output file (-o OUT.g2o)");
+    return 2;
+  }
+  if ((outliers < 0) == (fraction < 0)) {
+    PrintError("give exactly one of --outliers N (N >= 0) and --fraction F (F >= 0)");
+    return 2;
+  }
+  if (list.empty()) list = out + ".outliers.txt";
+  PoseGraph graph = ReadGraph(in);
+  if (fraction >= 0)
+    outliers = static_cast<int>(
+        std::lround(fraction * static_cast<double>(graph.CountEdges(EdgeKind::kLoopClosure))));
+  std::vector<VertexPair> added;
+  try {
+    added = AddWrongLoopClosures(graph, outliers, static_cast<uint64_t>(seed));
+  } catch (const std::invalid_argument& e) {
+    PrintError(e.what());
+    return 1;
+  }
+  WriteG2o(graph, out);
+  WriteFileAtomically(list, [&](std::ostream& os) {
+    os << "# wrong loop closures added to " << in << " (seed " << seed << "): FROM TO\n";
+    for (const auto& [a, b] : added) os << a << " " << b << "\n";
+  });
+  std::fprintf(stderr, "%s: added %zu wrong loop closures -> %s (list: %s)\n", in.c_str(),
+               added.size(), out.c_str(), list.c_str());
+  return 0;
+}
+
+}  // namespace
+
+CAIRN_COMMAND("corrupt", "add random wrong loop closures to a pose graph", RunCorrupt);
+
+}  // namespace cairn::tools

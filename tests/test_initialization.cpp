@@ -6,6 +6,10 @@
 #include "backend/graph_gauss_newton.h"
 #include "backend/initialization.h"
 #include "backend/simulate.h"
+#include "test_util.h"
+
+#include <fstream>
+#include <iterator>
 
 namespace cairn {
 namespace {
@@ -101,6 +105,35 @@ TEST(InitMethods, ParseAndName) {
   for (const char* name : {"file", "odometry", "spanning-tree", "chordal"})
     EXPECT_STREQ(ToString(ParseInitMethod(name)), name);
   EXPECT_THROW(ParseInitMethod("magic"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace cairn
+
+namespace cairn {
+namespace {
+
+TEST(OptimizeTool, InitChordalIsReported) {
+  const std::string dir = ::testing::TempDir();
+  int status = -1;
+  cairn::testing::RunCommand(std::string(CAIRN_TOOL) + " simulate --poses 200 -o '" + dir +
+                                 "/init_sim.g2o' 2>/dev/null",
+                             &status);
+  ASSERT_EQ(status, 0);
+  cairn::testing::RunCommand(std::string(CAIRN_TOOL) + " optimize --quiet --init chordal '" + dir +
+                                 "/init_sim.g2o' -o '" + dir + "/init_out.g2o' --report '" + dir +
+                                 "/init_report.json'",
+                             &status);
+  ASSERT_EQ(status, 0);
+  std::ifstream in(dir + "/init_report.json");
+  const std::string json((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(json.find("\"init\": \"chordal\""), std::string::npos) << json;
+  const double init_chi2 = cairn::testing::JsonNumber(json, "init_chi2");
+  EXPECT_NEAR(init_chi2, cairn::testing::JsonNumber(json, "initial_chi2"), 1e-6 * init_chi2);
+  cairn::testing::RunCommand(std::string(CAIRN_TOOL) + " optimize --quiet --init magic '" + dir +
+                                 "/init_sim.g2o' -o '" + dir + "/x.g2o' 2>/dev/null",
+                             &status);
+  EXPECT_EQ(status, 2);
 }
 
 }  // namespace

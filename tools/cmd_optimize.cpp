@@ -9,6 +9,7 @@
 #include "backend/covariance.h"
 #include "backend/graph_gauss_newton.h"
 #include "backend/graph_io.h"
+#include "backend/initialization.h"
 #include "backend/outliers.h"
 #include "backend/solve_result.h"
 #include "backend/svg_plot.h"
@@ -47,6 +48,7 @@ std::string CovarianceJson(const std::vector<int64_t>& ids, const std::vector<Ei
 
 int RunOptimize(int argc, char** argv) {
   std::string in, out, solver = "ceres", robust = "none", method = "lm", sparse = "auto";
+  std::string init = "file";
   std::string report, plot, linear_solver = "auto";
   bool quiet = false, strict = false, no_jacobi = false;
   // The common options (SolverOptions) live in the Ceres struct; --solver gn
@@ -115,6 +117,10 @@ int RunOptimize(int argc, char** argv) {
               "--outlier-confidence quantile for 3 or 6 dof)");
   args.Option("outlier-confidence", &rejection.confidence, "P",
               "with --reject-outliers: quantile of chi2 taken as the threshold");
+  args.Option("init", &init, "METHOD",
+              "initial estimate: file (the file's vertices), odometry (chained odometry), "
+              "spanning-tree (chained along the most certain edges) or chordal (chordal "
+              "relaxation of the rotations, then linear translations)");
   args.Flag("quiet", &quiet, "no progress lines and no summary");
   args.Flag("strict", &strict, "refuse tags cairn does not know instead of skipping them");
   int code = 0;
@@ -156,6 +162,13 @@ int RunOptimize(int argc, char** argv) {
     }
   }
 
+  InitMethod init_method;
+  try {
+    init_method = ParseInitMethod(init);
+  } catch (const std::invalid_argument& e) {
+    PrintError(e.what());
+    return 2;
+  }
   ReadOptions read_options;
   read_options.strict = strict;
   read_options.warnings = &std::cerr;
@@ -163,8 +176,13 @@ int RunOptimize(int argc, char** argv) {
   PoseGraph graph = ReadGraph(in, read_options);
   const double read_time =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
-  // Only copied when asked for: the "before" panel of the plot.
+  // Only copied when asked for: the "before" panel of the plot, the file's
+  // own estimate whatever the initialisation.
   const PoseGraph before = plot.empty() ? PoseGraph(graph.dimension()) : graph;
+  const InitReport init_report = Initialize(graph, init_method);
+  if (!quiet && init_method != InitMethod::kFile)
+    std::fprintf(stderr, "initial estimate: %s, %.4f s, chi2 %.10g\n", ToString(init_method),
+                 init_report.time_s, init_report.chi2);
 
   std::vector<VertexPair> rejected;
   SolveResult result;
@@ -233,6 +251,9 @@ int RunOptimize(int argc, char** argv) {
         {"method", solver == "gn" ? "gauss-newton" : method},
         {"sparse", solver == "gn" ? linear_solver : sparse},
         {"read_time_s", Number(read_time)},
+        {"init", ToString(init_method)},
+        {"init_time_s", Number(init_report.time_s)},
+        {"init_chi2", Number(init_report.chi2)},
     };
     std::ostringstream json;
     WriteReportJson(result, json, context);
@@ -257,7 +278,7 @@ int RunOptimize(int argc, char** argv) {
     WriteFileAtomically(report, [&](std::ostream& os) { os << text; });
   }
   if (!plot.empty()) {
-    PlotPanel a{&before, "before: chi2 " + Number(result.initial_chi2), "#888888"};
+    PlotPanel a{&before, "before: chi2 " + Number(Chi2(before)), "#888888"};
     PlotPanel b{&graph, "after: chi2 " + Number(result.final_chi2)};
     WriteFileAtomically(plot, [&](std::ostream& os) { WriteSvgPlot(os, {a, b}, in); });
   }

@@ -67,7 +67,7 @@ double TimeToReach(const SolveResult& r, double chi2) {
 
 int RunCompare(int argc, char** argv) {
   std::string path, json, robust = "none", linear_solver = "auto", sparse = "auto", init = "file";
-  bool quiet = false;
+  bool quiet = false, no_chord = false;
   double tol_m = 1e-4, tol_deg = 1e-3, tol_chi2 = 1e-6;
   SolverOptions common;
   // Tighter than a plain optimize: two solvers agree only near the optimum.
@@ -106,6 +106,8 @@ int RunCompare(int argc, char** argv) {
               "initial estimate for both: file (the file's vertices), odometry (chained "
               "odometry), spanning-tree (chained along the most certain edges) or chordal "
               "(chordal relaxation of the rotations, then linear translations)");
+  args.Flag("gn-no-chord", &no_chord,
+            "gn: factorise at every step (no steps with an earlier factorisation)");
   args.Flag("quiet", &quiet, "no per-iteration progress lines");
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
@@ -118,6 +120,7 @@ int RunCompare(int argc, char** argv) {
   static_cast<SolverOptions&>(go) = common;
   go.linear_solver = ParseCholeskyKind(linear_solver);
   go.damping = damping;
+  go.reuse_factorization = !no_chord;
 
   ReadOptions ro;
   ro.warnings = &std::cerr;

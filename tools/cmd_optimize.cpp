@@ -55,6 +55,7 @@ int RunOptimize(int argc, char** argv) {
   // copies them over.
   CeresOptions o;
   double gn_damping = GaussNewtonOptions().damping;
+  bool gn_no_chord = false;
   ArgParser args(
       "optimize IN -o OUT.g2o [--solver ceres|gn] [--robust huber:D|cauchy:D|dcs:PHI] [options]",
       "Optimises a g2o or TORO pose graph from the estimate in the file and writes the\n"
@@ -96,6 +97,8 @@ int RunOptimize(int argc, char** argv) {
   args.Flag("no-jacobi-scaling", &no_jacobi, "ceres: do not scale columns of the Jacobian");
   args.Option("linear-solver", &linear_solver, "NAME",
               "gn: auto, supernodal, simplicial, cholmod-auto or eigen");
+  args.Flag("gn-no-chord", &gn_no_chord,
+            "gn: factorise at every step (no steps with an earlier factorisation)");
   args.Option("gn-damping", &gn_damping, "LAMBDA",
               "gn: first damping tried when a Gauss-Newton step raises chi2");
   args.Option("report", &report, "FILE.json",
@@ -151,6 +154,7 @@ int RunOptimize(int argc, char** argv) {
   o.jacobi_scaling = !no_jacobi;
   static_cast<SolverOptions&>(gn) = o;
   gn.damping = gn_damping;
+  gn.reuse_factorization = !gn_no_chord;
 
   std::vector<int64_t> covariance_of;
   if (!covariance_ids.empty()) {

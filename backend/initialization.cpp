@@ -140,6 +140,10 @@ std::vector<bool> ComponentRoots(const PoseGraph& graph) {
   return root;
 }
 
+// Blocks of at most 3x3 (3 right-hand sides), kept on the stack: the
+// chordal step builds a few of them per edge.
+using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>;
+
 // A sparse symmetric system over blocks of size d, with some blocks known
 // (anchored): their terms move to the right-hand side. Solved by Eigen's
 // simplicial LDL^T; `rhs_columns` right-hand sides share one factorisation.
@@ -156,14 +160,14 @@ class BlockSystem {
 
   // Adds the residual A_i x_i + A_j x_j - c (weight W) for vertices i, j;
   // `known` gives the values of anchored blocks (d x rhs_columns each).
-  void AddResidual(size_t i, const Eigen::MatrixXd& ai, size_t j, const Eigen::MatrixXd& aj,
-                   const Eigen::MatrixXd& c, const Eigen::MatrixXd& w,
-                   const std::vector<Eigen::MatrixXd>& known) {
+  void AddResidual(size_t i, const Block& ai, size_t j, const Block& aj,
+                   const Block& c, const Block& w,
+                   const std::vector<Block>& known) {
     // Move anchored terms into the constant: r = A_u x_u - (c - A_a x_a).
-    Eigen::MatrixXd rhs = c;
+    Block rhs = c;
     if (index_[i] < 0) rhs -= ai * known[i];
     if (index_[j] < 0) rhs -= aj * known[j];
-    const std::pair<size_t, const Eigen::MatrixXd*> terms[2] = {{i, &ai}, {j, &aj}};
+    const std::pair<size_t, const Block*> terms[2] = {{i, &ai}, {j, &aj}};
     for (const auto& [p, ap] : terms) {
       if (index_[p] < 0) continue;
       b_.middleRows(static_cast<Eigen::Index>(index_[p]) * d_, d_) += ap->transpose() * w * rhs;
@@ -174,8 +178,10 @@ class BlockSystem {
     }
   }
 
+  void Reserve(size_t residuals) { triplets_.reserve(residuals * 4 * d_ * d_); }
+
   // Solves and returns the unknown blocks (by vertex index; anchored: empty).
-  std::vector<Eigen::MatrixXd> Solve() {
+  std::vector<Block> Solve() {
     Eigen::SparseMatrix<double> h(static_cast<Eigen::Index>(n_) * d_,
                                   static_cast<Eigen::Index>(n_) * d_);
     h.setFromTriplets(triplets_.begin(), triplets_.end());
@@ -184,14 +190,14 @@ class BlockSystem {
       throw std::runtime_error("chordal initialisation: singular linear system");
     const Eigen::MatrixXd x = ldlt.solve(b_);
     if (!x.allFinite()) throw std::runtime_error("chordal initialisation: no finite solution");
-    std::vector<Eigen::MatrixXd> out(index_.size());
+    std::vector<Block> out(index_.size());
     for (size_t v = 0; v < index_.size(); ++v)
       if (index_[v] >= 0) out[v] = x.middleRows(static_cast<Eigen::Index>(index_[v]) * d_, d_);
     return out;
   }
 
  private:
-  void AddBlock(int r, int c, const Eigen::MatrixXd& m) {
+  void AddBlock(int r, int c, const Block& m) {
     for (int a = 0; a < d_; ++a)
       for (int b = 0; b < d_; ++b)
         if (m(a, b) != 0) triplets_.emplace_back(r * d_ + a, c * d_ + b, m(a, b));
@@ -254,7 +260,7 @@ void InitializeChordal(PoseGraph& graph) {
   for (size_t i = 0; i < n; ++i) anchored[i] = root[i] || vertices[i].fixed;
 
   // Current rotations and translations, as matrices.
-  std::vector<Eigen::MatrixXd> rot(n), trans(n);
+  std::vector<Block> rot(n), trans(n);
   for (size_t i = 0; i < n; ++i) {
     if (planar) {
       const SE2 p = ToSE2(vertices[i].x);
@@ -271,13 +277,14 @@ void InitializeChordal(PoseGraph& graph) {
   // a_j = Z^T a_i: residual a_j - Z^T a_i, all d columns at once.
   {
     BlockSystem rs(anchored, d, d);
-    std::vector<Eigen::MatrixXd> known(n);
+    rs.Reserve(graph.edges().size());
+    std::vector<Block> known(n);
     for (size_t i = 0; i < n; ++i) known[i] = rot[i].transpose();
-    const Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(d, d);
+    const Block identity = Block::Identity(d, d);
     for (const Edge& e : graph.edges()) {
       if (e.IsPrior()) continue;
       const size_t i = graph.VertexIndex(e.from), j = graph.VertexIndex(e.to);
-      Eigen::MatrixXd z;
+      Block z;
       double w;
       if (planar) {
         z = ToSE2(e.z).rotation();
@@ -286,13 +293,13 @@ void InitializeChordal(PoseGraph& graph) {
         z = ToSE3(e.z).rotation().toRotationMatrix();
         w = e.information.bottomRightCorner<3, 3>().trace() / 3.0;
       }
-      rs.AddResidual(i, -z.transpose(), j, identity, Eigen::MatrixXd::Zero(d, d),
+      rs.AddResidual(i, -z.transpose(), j, identity, Block::Zero(d, d),
                      w * identity, known);
     }
     const auto solved = rs.Solve();
     for (size_t i = 0; i < n; ++i) {
       if (anchored[i]) continue;
-      const Eigen::MatrixXd r = solved[i].transpose();
+      const Block r = solved[i].transpose();
       if (planar) {
         const double theta = std::atan2(r(1, 0) - r(0, 1), r(0, 0) + r(1, 1));
         rot[i] = SE2(0, 0, theta).rotation();
@@ -306,11 +313,12 @@ void InitializeChordal(PoseGraph& graph) {
   // by (R_i R_z) Omega_t (R_i R_z)^T, the translation error's information.
   {
     BlockSystem ts(anchored, d, 1);
-    const Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(d, d);
+    ts.Reserve(graph.edges().size());
+    const Block identity = Block::Identity(d, d);
     for (const Edge& e : graph.edges()) {
       if (e.IsPrior()) continue;
       const size_t i = graph.VertexIndex(e.from), j = graph.VertexIndex(e.to);
-      Eigen::MatrixXd rz, tz;
+      Block rz, tz;
       if (planar) {
         rz = ToSE2(e.z).rotation();
         tz = ToSE2(e.z).translation();
@@ -318,8 +326,8 @@ void InitializeChordal(PoseGraph& graph) {
         rz = ToSE3(e.z).rotation().toRotationMatrix();
         tz = ToSE3(e.z).translation();
       }
-      const Eigen::MatrixXd q = rot[i] * rz;
-      const Eigen::MatrixXd w = q * e.information.topLeftCorner(d, d) * q.transpose();
+      const Block q = rot[i] * rz;
+      const Block w = q * e.information.topLeftCorner(d, d) * q.transpose();
       ts.AddResidual(i, -identity, j, identity, rot[i] * tz, w, trans);
     }
     const auto solved = ts.Solve();

@@ -399,57 +399,67 @@ double GaussNewtonProblem::Evaluate(bool jacobians) {
 }
 
 double GaussNewtonProblem::Linearize(bool assemble_h) {
+  const double chi2 = LinearizeGradient();
+  if (assemble_h) AssembleNormalMatrix();
+  return chi2;
+}
+
+double GaussNewtonProblem::LinearizeGradient() {
   Workspace& w = *ws_;
   const std::vector<int>& variables = w.variables;
   const int nvar = static_cast<int>(variables.size());
-    pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
-      for (size_t v = begin; v < end; ++v) {
-        const Block& b = blocks_[variables[v]];
-        if (b.manifold) b.manifold->PlusJacobian(b.values, w.plus_jac.data() + w.plus_jac_off[v]);
+  pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
+    for (size_t v = begin; v < end; ++v) {
+      const Block& b = blocks_[variables[v]];
+      if (b.manifold) b.manifold->PlusJacobian(b.values, w.plus_jac.data() + w.plus_jac_off[v]);
+    }
+  });
+  const double chi2 = Evaluate(true);
+  pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
+    for (size_t v = begin; v < end; ++v) {
+      const Block& b = blocks_[variables[v]];
+      Eigen::Map<Eigen::VectorXd> g(w.b.data() + b.offset, b.tangent);
+      g.setZero();
+      for (const auto& [k, p] : w.gradient_terms[v]) {
+        const int m = residuals_[k].cost->num_residuals();
+        const Eigen::Map<const RowMatrix> jp(w.jac_local.data() + w.jac_local_off[k][p], m, b.tangent);
+        g.noalias() += jp.transpose() * Eigen::Map<const Eigen::VectorXd>(w.r.data() + w.residual_offset[k], m);
       }
-    });
-    const double chi2 = Evaluate(true);
-    double* h = w.cholesky->values();
-    // H, block by block; each block written by one thread only.
-    if (assemble_h)
-    pool_->ParallelFor(w.h_block_order.size(), [&](size_t begin, size_t end) {
-      // One buffer per chunk, sized for the largest block.
-      Eigen::MatrixXd buffer(w.max_tangent, w.max_tangent);
-      for (size_t t = begin; t < end; ++t) {
-        const auto& hb = w.h_blocks[w.h_block_order[t]];
-        const int tr = blocks_[variables[hb.row_block]].tangent;
-        const int tc = blocks_[variables[hb.col_block]].tangent;
-        auto acc = buffer.topLeftCorner(tr, tc);
-        acc.setZero();
-        for (const auto& c : hb.terms) {
-          const int m = residuals_[c.residual].cost->num_residuals();
-          const Eigen::Map<const RowMatrix> jp(w.jac_local.data() + w.jac_local_off[c.residual][c.p], m, tr);
-          const Eigen::Map<const RowMatrix> jq(w.jac_local.data() + w.jac_local_off[c.residual][c.q], m, tc);
-          acc.noalias() += jp.transpose() * jq;
-        }
-        const bool diag = hb.row_block == hb.col_block;
-        for (int j = 0; j < tc; ++j) {
-          double* col = h + w.col_start[hb.start + j];
-          const int height = diag ? j + 1 : tr;
-          for (int i = 0; i < height; ++i) col[i] = acc(i, j);
-        }
+    }
+  });
+  return chi2;
+}
+
+// H from the Jacobians LinearizeGradient left, block by block; each block is
+// written by one thread only.
+void GaussNewtonProblem::AssembleNormalMatrix() {
+  Workspace& w = *ws_;
+  const std::vector<int>& variables = w.variables;
+  double* h = w.cholesky->values();
+  pool_->ParallelFor(w.h_block_order.size(), [&](size_t begin, size_t end) {
+    // One buffer per chunk, sized for the largest block.
+    Eigen::MatrixXd buffer(w.max_tangent, w.max_tangent);
+    for (size_t t = begin; t < end; ++t) {
+      const auto& hb = w.h_blocks[w.h_block_order[t]];
+      const int tr = blocks_[variables[hb.row_block]].tangent;
+      const int tc = blocks_[variables[hb.col_block]].tangent;
+      auto acc = buffer.topLeftCorner(tr, tc);
+      acc.setZero();
+      for (const auto& c : hb.terms) {
+        const int m = residuals_[c.residual].cost->num_residuals();
+        const Eigen::Map<const RowMatrix> jp(w.jac_local.data() + w.jac_local_off[c.residual][c.p], m, tr);
+        const Eigen::Map<const RowMatrix> jq(w.jac_local.data() + w.jac_local_off[c.residual][c.q], m, tc);
+        acc.noalias() += jp.transpose() * jq;
       }
-    });
-    pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
-      for (size_t v = begin; v < end; ++v) {
-        const Block& b = blocks_[variables[v]];
-        Eigen::Map<Eigen::VectorXd> g(w.b.data() + b.offset, b.tangent);
-        g.setZero();
-        for (const auto& [k, p] : w.gradient_terms[v]) {
-          const int m = residuals_[k].cost->num_residuals();
-          const Eigen::Map<const RowMatrix> jp(w.jac_local.data() + w.jac_local_off[k][p], m, b.tangent);
-          g.noalias() += jp.transpose() * Eigen::Map<const Eigen::VectorXd>(w.r.data() + w.residual_offset[k], m);
-        }
+      const bool diag = hb.row_block == hb.col_block;
+      for (int j = 0; j < tc; ++j) {
+        double* col = h + w.col_start[hb.start + j];
+        const int height = diag ? j + 1 : tr;
+        for (int i = 0; i < height; ++i) col[i] = acc(i, j);
       }
-    });
-    if (assemble_h)
-      for (int i = 0; i < w.n; ++i) w.diagonal_saved[i] = w.cholesky->values()[w.diagonal[i]];
-    return chi2;
+    }
+  });
+  for (int i = 0; i < w.n; ++i) w.diagonal_saved[i] = h[w.diagonal[i]];
 }
 
 bool GaussNewtonProblem::SolveWithLastFactor(double* step_norm) {
@@ -548,7 +558,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
 
   double resume_lambda = 0;
   double last_decrease = 1.0;
-  bool have_factor = false;
+  bool have_factor = false, jacobians_current = false;
   for (int iter = 1; iter <= options.max_iterations; ++iter) {
     // Near the optimum H hardly changes: a step with the last factorisation
     // (a chord step) costs a linearisation and two triangular solves instead
@@ -589,10 +599,16 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
                         "converged: the next step changes chi-squared only within rounding", true);
         }
       }
-      have_factor = false;  // fall through: a full step from the same point
+      have_factor = false;  // fall through: a full step from the same point,
+      jacobians_current = true;  // whose Jacobians and gradient are already there
     }
     const auto tl = std::chrono::steady_clock::now();
-    Linearize();
+    if (jacobians_current) {
+      AssembleNormalMatrix();
+    } else {
+      Linearize();
+    }
+    jacobians_current = false;
     result.linearize_time_s += Seconds(tl);
     const double g_max = Eigen::Map<const Eigen::VectorXd>(w.b.data(), w.n).cwiseAbs().maxCoeff();
     if (g_max <= options.gradient_tolerance)

@@ -97,6 +97,9 @@ class GaussNewtonProblem {
   struct Workspace;
 
   double Evaluate(bool jacobians);
+  // Jacobians and gradient b at the current estimate; returns chi2.
+  double LinearizeGradient();
+  void AssembleNormalMatrix();
   void SaveEstimate();
   void RestoreEstimate();
 

@@ -12,6 +12,7 @@
 #include "backend/ceres_solver.h"
 #include "backend/chi2.h"
 #include "backend/graph_io.h"
+#include "backend/pose_difference.h"
 #include "backend/simulate.h"
 #include "backend/solve_result.h"
 #include "test_util.h"
@@ -49,15 +50,7 @@ void Perturb(PoseGraph& graph, double sigma, int64_t keep, unsigned seed) {
 }
 
 double MaxTranslationError(const PoseGraph& a, const PoseGraph& b) {
-  double worst = 0;
-  for (const Vertex& v : a.vertices()) {
-    const PoseParams& w = b.vertex(v.id).x;
-    const int n = a.dimension();
-    double d2 = 0;
-    for (int i = 0; i < n; ++i) d2 += (v.x[i] - w[i]) * (v.x[i] - w[i]);
-    worst = std::max(worst, std::sqrt(d2));
-  }
-  return worst;
+  return ComparePoses(a, b).max_translation;
 }
 
 double MaxRotationError(const PoseGraph& a, const PoseGraph& b) {

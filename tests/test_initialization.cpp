@@ -5,6 +5,7 @@
 #include "backend/chi2.h"
 #include "backend/graph_gauss_newton.h"
 #include "backend/initialization.h"
+#include "backend/pose_difference.h"
 #include "backend/simulate.h"
 #include "test_util.h"
 
@@ -15,15 +16,7 @@ namespace cairn {
 namespace {
 
 double MaxTranslationError(const PoseGraph& a, const PoseGraph& b) {
-  double worst = 0;
-  for (size_t i = 0; i < a.vertices().size(); ++i) {
-    const auto& x = a.vertices()[i].x;
-    const auto& y = b.vertices()[i].x;
-    const double d = a.dimension() == 2 ? std::hypot(x[0] - y[0], x[1] - y[1])
-                                        : (ToSE3(x).translation() - ToSE3(y).translation()).norm();
-    worst = std::max(worst, d);
-  }
-  return worst;
+  return ComparePoses(a, b).max_translation;
 }
 
 Simulation Noiseless(int dimension) {

@@ -9,43 +9,12 @@
 #include "backend/graph_gauss_newton.h"
 #include "backend/graph_io.h"
 #include "backend/initialization.h"
+#include "backend/pose_difference.h"
 #include "tools/args.h"
 #include "tools/command.h"
 
 namespace cairn::tools {
 namespace {
-
-struct PoseDifference {
-  double max_translation = 0, rms_translation = 0;  // m
-  double max_rotation_deg = 0, rms_rotation_deg = 0;
-};
-
-PoseDifference Compare(const PoseGraph& a, const PoseGraph& b) {
-  PoseDifference d;
-  const size_t n = a.vertices().size();
-  for (size_t i = 0; i < n; ++i) {
-    double t, r;
-    if (a.dimension() == 2) {
-      const SE2 e = ToSE2(a.vertices()[i].x).Between(ToSE2(b.vertices()[i].x));
-      t = (ToSE2(a.vertices()[i].x).translation() - ToSE2(b.vertices()[i].x).translation()).norm();
-      r = std::abs(e.theta());
-    } else {
-      const SE3 pa = ToSE3(a.vertices()[i].x), pb = ToSE3(b.vertices()[i].x);
-      t = (pa.translation() - pb.translation()).norm();
-      r = QuaternionLog(pa.rotation().conjugate() * pb.rotation()).norm();
-    }
-    r *= 180.0 / M_PI;
-    d.max_translation = std::max(d.max_translation, t);
-    d.max_rotation_deg = std::max(d.max_rotation_deg, r);
-    d.rms_translation += t * t;
-    d.rms_rotation_deg += r * r;
-  }
-  if (n > 0) {
-    d.rms_translation = std::sqrt(d.rms_translation / n);
-    d.rms_rotation_deg = std::sqrt(d.rms_rotation_deg / n);
-  }
-  return d;
-}
 
 std::string SolverJson(const SolveResult& r) {
   char buf[512];
@@ -135,7 +104,7 @@ int RunCompare(int argc, char** argv) {
   const SolveResult c = SolveWithCeres(ceres_graph, co);
   if (!quiet) std::fprintf(stderr, "-- gn (%s) --\n", ToString(go.linear_solver));
   const SolveResult g = SolveGaussNewton(gn_graph, go);
-  const PoseDifference d = Compare(ceres_graph, gn_graph);
+  const PoseDifference d = ComparePoses(ceres_graph, gn_graph);
   const double chi2_rel = std::abs(c.final_chi2 - g.final_chi2) / std::max(c.final_chi2, 1e-300);
 
   std::printf("%s: %zu vertices, %zu edges\n", path.c_str(), input.vertices().size(),

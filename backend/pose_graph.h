@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <deque>
 #include <string>
+#include <type_traits>
 #include <unordered_map>
 #include <vector>
 
@@ -88,6 +89,16 @@ SE2 ToSE2(const PoseParams& p);
 SE3 ToSE3(const PoseParams& p);
 PoseParams ToParams(const SE2& pose);
 PoseParams ToParams(const SE3& pose);
+
+// ToSE2 or ToSE3 by type, for code written once for both dimensions.
+template <typename Pose>
+Pose ToPose(const PoseParams& p) {
+  if constexpr (std::is_same_v<Pose, SE2>) {
+    return ToSE2(p);
+  } else {
+    return ToSE3(p);
+  }
+}
 
 // The kind g2o files imply: consecutive ids are odometry, others loop closures.
 EdgeKind KindForBetween(int64_t from, int64_t to);

@@ -9,15 +9,6 @@
 namespace cairn {
 namespace {
 
-template <typename Pose>
-Pose ToPose(const PoseParams& p) {
-  if constexpr (std::is_same_v<Pose, SE2>) {
-    return ToSE2(p);
-  } else {
-    return ToSE3(p);
-  }
-}
-
 // The noisy graph's estimate: odometry measurements chained from pose 0.
 template <typename Pose>
 void ChainOdometry(Simulation& sim) {

@@ -71,15 +71,6 @@ void BM_ColdSolve(benchmark::State& state) {
   state.counters["chi2"] = chi2;
 }
 
-template <typename Pose>
-Pose PoseOf(const PoseGraph& g, int64_t id) {
-  if constexpr (std::is_same_v<Pose, SE2>) {
-    return ToSE2(g.vertex(id).x);
-  } else {
-    return ToSE3(g.vertex(id).x);
-  }
-}
-
 // The true pose nearest to pose i among those at least 20 steps older: where
 // a place recognizer would close a loop.
 int64_t NearestOlder(const PoseGraph& truth, int64_t i) {
@@ -104,7 +95,7 @@ void AddOnePose(IncrementalOptimizer& opt, const Simulation& sim, int64_t i, int
     if (e.kind == EdgeKind::kOdometry && e.to == i) odometry = &e;
   Pose z;
   if constexpr (std::is_same_v<Pose, SE2>) z = ToSE2(odometry->z); else z = ToSE3(odometry->z);
-  opt.AddPose(i, PoseOf<Pose>(opt.graph(), i - 1) * z);
+  opt.AddPose(i, ToPose<Pose>(opt.graph().vertex(i - 1).x) * z);
   opt.AddEdge(*odometry);
   if (loop_to < 0) return;
   // A loop closure measured exactly (from the truth), so that it pulls
@@ -114,7 +105,8 @@ void AddOnePose(IncrementalOptimizer& opt, const Simulation& sim, int64_t i, int
   lc.kind = EdgeKind::kLoopClosure;
   lc.from = j;
   lc.to = i;
-  lc.z = ToParams(PoseOf<Pose>(sim.truth, j).Between(PoseOf<Pose>(sim.truth, i)));
+  lc.z = ToParams(
+      ToPose<Pose>(sim.truth.vertex(j).x).Between(ToPose<Pose>(sim.truth.vertex(i).x)));
   opt.AddEdge(lc);
 }
 

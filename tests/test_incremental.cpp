@@ -34,15 +34,6 @@ Simulation Small(int dimension, int poses) {
   return Simulate(o);
 }
 
-template <typename Pose>
-Pose PoseOf(const PoseGraph& g, int64_t id) {
-  if constexpr (std::is_same_v<Pose, SE2>) {
-    return ToSE2(g.vertex(id).x);
-  } else {
-    return ToSE3(g.vertex(id).x);
-  }
-}
-
 // Feeds the simulated graph pose by pose (each pose with the edges that end
 // at it, its estimate from the last pose and the odometry), optimising every
 // `every` poses; returns the final chi2.
@@ -56,14 +47,14 @@ double Feed(const Simulation& sim, IncrementalOptimizer& opt, SolverKind solver,
   double chi2 = 0;
   for (int64_t i = 0; i < static_cast<int64_t>(g.vertices().size()); ++i) {
     if (i == 0) {
-      opt.AddPose(0, PoseOf<Pose>(g, 0));
+      opt.AddPose(0, ToPose<Pose>(g.vertex(0).x));
     } else {
       // Dead reckoning from the current (optimised) estimate of the last pose.
       const Edge& odo = edges[k];
       EXPECT_EQ(odo.to, i);
       Pose z;
       if constexpr (std::is_same_v<Pose, SE2>) z = ToSE2(odo.z); else z = ToSE3(odo.z);
-      opt.AddPose(i, PoseOf<Pose>(opt.graph(), i - 1) * z);
+      opt.AddPose(i, ToPose<Pose>(opt.graph().vertex(i - 1).x) * z);
     }
     for (; k < edges.size() && std::max(edges[k].from, edges[k].to) <= i; ++k)
       opt.AddEdge(edges[k]);

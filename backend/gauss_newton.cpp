@@ -125,6 +125,10 @@ namespace {
 // Chord steps start once a full step lowers chi2 by less than this fraction:
 // by then the problem is close to quadratic and H changes little.
 constexpr double kChordThreshold = 2e-2;
+// Ceres's defaults: a step must achieve this share of the decrease its
+// linear model predicted, and the trust region stays within [1e-32, 1e16].
+constexpr double kMinRelativeDecrease = 1e-3;
+constexpr double kMinDamping = 1e-16, kMaxDamping = 1e32;
 
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
@@ -482,6 +486,16 @@ bool GaussNewtonProblem::SolveStep(double lambda, double* step_norm) {
   return std::isfinite(*step_norm);
 }
 
+double GaussNewtonProblem::PredictedDecrease(double lambda) const {
+  // With (H + lambda D) dx = -b, the model |r + J dx|^2 falls by
+  // -2 b.dx - dx'H dx = -b.dx + lambda dx'D dx.
+  const Workspace& w = *ws_;
+  double decrease = 0;
+  for (int i = 0; i < w.n; ++i)
+    decrease += -w.b[i] * w.dx[i] + lambda * std::max(w.diagonal_saved[i], 1e-12) * w.dx[i] * w.dx[i];
+  return decrease;
+}
+
 void GaussNewtonProblem::SaveEstimate() {
   Workspace& w = *ws_;
   size_t o = 0;
@@ -556,7 +570,8 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
     return finish("failure", "the initial estimate gives a non-finite chi-squared", false);
   if (w.n == 0) return finish("convergence", "nothing to optimise: every block is constant", true);
 
-  double resume_lambda = 0;
+  bool pure_gauss_newton = true;
+  double damping = options.damping, decrease_factor = 2;
   double last_decrease = 1.0;
   bool have_factor = false, jacobians_current = false;
   for (int iter = 1; iter <= options.max_iterations; ++iter) {
@@ -619,49 +634,57 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
     for (double v : w.x_saved) x_norm += v * v;
     x_norm = std::sqrt(x_norm);
 
-    // Pure Gauss-Newton until a step fails to lower chi2; damped from then on.
-    double lambda = resume_lambda, nu = 2, solve_s = 0, new_chi2 = chi2, step_norm = 0;
+    // Pure Gauss-Newton until a step fails; from then on Levenberg-Marquardt
+    // with Ceres's trust-region schedule (its radius is 1/lambda), so that
+    // on a problem with several minima both paths walk the same way.
+    double solve_s = 0, new_chi2 = chi2, step_norm = 0, rho = 1;
     bool accepted = false, at_rounding = false;
     for (;;) {
+      const double lambda = pure_gauss_newton ? 0.0 : damping;
       const auto ts = std::chrono::steady_clock::now();
       bool ok = SolveStep(lambda, &step_norm);
       const double s = Seconds(ts);
       solve_s += s;
       result.linear_solver_time_s += s;
       if (ok) {
+        const double predicted = PredictedDecrease(lambda);
         ApplyStep();
         const auto te = std::chrono::steady_clock::now();
         new_chi2 = Evaluate(false);
         result.linearize_time_s += Seconds(te);
-        if (std::isfinite(new_chi2) && new_chi2 <= chi2) {
+        rho = predicted > 0 ? (chi2 - new_chi2) / predicted : -1;
+        if (std::isfinite(new_chi2) && new_chi2 <= chi2 && rho > kMinRelativeDecrease) {
           accepted = true;
           break;
         }
         RestoreEstimate();
-        // A rise within rounding of chi2 means the estimate is already at
+        // A change within rounding of chi2 means the estimate is already at
         // the minimum: damping would only repeat the same factorisation.
-        if (std::isfinite(new_chi2) && new_chi2 - chi2 <= 1e-12 * chi2) {
+        if (std::isfinite(new_chi2) && std::abs(new_chi2 - chi2) <= 1e-12 * chi2) {
           at_rounding = true;
           break;
         }
       }
-      // Levenberg-Marquardt's schedule once Gauss-Newton has failed:
-      // doubling growth on each refusal, as Ceres's trust region shrinks.
-      const double next = lambda == 0 ? options.damping : lambda * nu;
-      nu *= 2;
+      damping *= decrease_factor;
+      decrease_factor *= 2;
       if (options.verbose)
-        std::fprintf(stderr, "         %s; trying a damped step (lambda %.1e)\n",
-                     !ok ? "normal equations not positive definite"
-                         : (lambda == 0 ? "Gauss-Newton step raised chi2" : "damped step raised chi2"),
-                     next);
-      lambda = next;
-      if (lambda > 1e12) break;
+        std::fprintf(stderr, "         %s step %s; trying a damped step (lambda %.1e)\n",
+                     pure_gauss_newton ? "Gauss-Newton" : "damped",
+                     !ok ? "met normal equations that are not positive definite"
+                     : !(new_chi2 <= chi2) ? "raised chi2"
+                                           : "lowered chi2 by under 0.1% of what its model predicted",
+                     damping);
+      pure_gauss_newton = false;
+      if (damping > kMaxDamping) break;
     }
     result.iterations = iter;
-    // After a success the damping relaxes by a third, never back to zero:
-    // a problem that once needed damping (a curved, flat valley) tends to
-    // again, and restarting from pure Gauss-Newton would waste a solve.
-    resume_lambda = lambda == 0 ? 0.0 : std::max(lambda / 3, 1e-12);
+    if (accepted) {
+      // Ceres's rule: a step that did what the model said widens the trust
+      // region (up to 3 times), a poor one narrows it.
+      damping = std::max(kMinDamping,
+                         damping * std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3)));
+      decrease_factor = 2;
+    }
     if (at_rounding) {
       record(iter, step_norm, false, solve_s);
       return finish("convergence",

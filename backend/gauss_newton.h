@@ -23,10 +23,11 @@ namespace cairn {
 // The common options (iterations, tolerances, threads, progress, robust
 // loss for loop closures) mean the same as for the Ceres path.
 struct GaussNewtonOptions : SolverOptions {
-  // First Levenberg-Marquardt damping (times diag(H)) tried when a pure
-  // Gauss-Newton step would raise chi-squared; multiplied by 10 until a step
-  // lowers it.
-  double damping = 1e-4;
+  // Levenberg-Marquardt damping (times diag(H)) that the fallback starts
+  // from once a pure Gauss-Newton step fails; it then follows Ceres's
+  // trust-region schedule, whose radius is 1/damping (Ceres starts ours at
+  // 1e10), so both paths take the same steps on hard problems.
+  double damping = 1e-10;
   CholeskyKind linear_solver = CholeskyKind::kAuto;
   // Once chi2 falls by less than 2% a step, try the last factorisation of
   // H with the new gradient before factorising again (see Solve).
@@ -100,6 +101,8 @@ class GaussNewtonProblem {
   // Jacobians and gradient b at the current estimate; returns chi2.
   double LinearizeGradient();
   void AssembleNormalMatrix();
+  // Fall of chi2 that the linear model promises for the step just solved.
+  double PredictedDecrease(double lambda) const;
   void SaveEstimate();
   void RestoreEstimate();
 

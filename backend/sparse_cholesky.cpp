@@ -1,9 +1,12 @@
 #include "backend/sparse_cholesky.h"
 
+#include "backend/openmp_scope.h"
+
 #include <cholmod.h>
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 
@@ -48,6 +51,7 @@ class Cholmod final : public SparseCholesky {
   ~Cholmod() override {
     if (factor_) cholmod_free_factor(&factor_, &common_);
     if (a_) cholmod_free_sparse(&a_, &common_);
+    if (permuted_) cholmod_free_sparse(&permuted_, &common_);
     if (x_) cholmod_free_dense(&x_, &common_);
     if (b_) cholmod_free_dense(&b_, &common_);
     if (y_) cholmod_free_dense(&y_, &common_);
@@ -65,12 +69,57 @@ class Cholmod final : public SparseCholesky {
     std::memcpy(a_->i, rows.data(), sizeof(int) * rows.size());
     std::memset(a_->x, 0, sizeof(double) * rows.size());
     const std::vector<int> perm = ScalarOrdering(n, col_ptr, rows, block_sizes);
+    SerialOpenMpScope serial;
+    cholmod_factor* ordered = nullptr;
     if (!perm.empty()) {
       common_.method[0].ordering = CHOLMOD_GIVEN;
-      factor_ = cholmod_analyze_p(a_, const_cast<int*>(perm.data()), nullptr, 0, &common_);
+      ordered = cholmod_analyze_p(a_, const_cast<int*>(perm.data()), nullptr, 0, &common_);
     } else {
-      factor_ = cholmod_analyze(a_, &common_);
+      ordered = cholmod_analyze(a_, &common_);
     }
+    if (!ordered) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
+    // cholmod_factorize would permute (and transpose) A into a fresh matrix
+    // at every call: two transposes for the simplicial method, one for the
+    // supernodal, and their allocations. Instead the permuted matrix is laid
+    // out here once, in the triangle each method reads without copying, and
+    // each factorisation only scatters the values into it.
+    perm_.assign(static_cast<const int*>(ordered->Perm), static_cast<const int*>(ordered->Perm) + n);
+    cholmod_free_factor(&ordered, &common_);
+    const bool upper = common_.supernodal != CHOLMOD_SUPERNODAL;  // the simplicial method reads triu
+    std::vector<int> inverse(n);
+    for (int k = 0; k < n; ++k) inverse[perm_[k]] = k;
+    const size_t nnz = rows.size();
+    std::vector<int> new_row(nnz), new_col(nnz), count(n + 1, 0);
+    for (int j = 0; j < n; ++j)
+      for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) {
+        const int pi = inverse[rows[k]], pj = inverse[j];
+        new_row[k] = upper ? std::min(pi, pj) : std::max(pi, pj);
+        new_col[k] = upper ? std::max(pi, pj) : std::min(pi, pj);
+      }
+    // Counting sort by row, then stably by column: rows sorted in columns.
+    std::vector<int> by_row(nnz), order(nnz);
+    for (size_t k = 0; k < nnz; ++k) ++count[new_row[k] + 1];
+    for (int i = 0; i < n; ++i) count[i + 1] += count[i];
+    for (size_t k = 0; k < nnz; ++k) by_row[count[new_row[k]]++] = static_cast<int>(k);
+    std::fill(count.begin(), count.end(), 0);
+    for (size_t k = 0; k < nnz; ++k) ++count[new_col[k] + 1];
+    for (int i = 0; i < n; ++i) count[i + 1] += count[i];
+    permuted_ = cholmod_allocate_sparse(n, n, nnz, /*sorted=*/1, /*packed=*/1, upper ? 1 : -1,
+                                        CHOLMOD_REAL, &common_);
+    if (!permuted_) throw std::runtime_error("CHOLMOD: out of memory allocating the normal matrix");
+    std::memcpy(permuted_->p, count.data(), sizeof(int) * (n + 1));
+    int* pi = static_cast<int*>(permuted_->i);
+    scatter_.resize(nnz);
+    for (int k : by_row) {
+      const int at = count[new_col[k]]++;
+      pi[at] = new_row[k];
+      scatter_[k] = at;
+    }
+    std::memset(permuted_->x, 0, sizeof(double) * nnz);
+    // Already in the fill-reducing order (postordered): analysed as is.
+    common_.method[0].ordering = CHOLMOD_NATURAL;
+    common_.postorder = 0;
+    factor_ = cholmod_analyze(permuted_, &common_);
     if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
     b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, &common_);
   }
@@ -78,15 +127,22 @@ class Cholmod final : public SparseCholesky {
   double* values() override { return static_cast<double*>(a_->x); }
 
   bool Factorize() override {
-    const int ok = cholmod_factorize(a_, factor_, &common_);
+    const double* from = static_cast<const double*>(a_->x);
+    double* to = static_cast<double*>(permuted_->x);
+    for (size_t k = 0; k < scatter_.size(); ++k) to[scatter_[k]] = from[k];
+    SerialOpenMpScope serial;
+    const int ok = cholmod_factorize(permuted_, factor_, &common_);
     return ok && common_.status == CHOLMOD_OK;
   }
 
   void Solve(const double* b, double* x) override {
-    std::memcpy(b_->x, b, sizeof(double) * n_);
+    double* pb = static_cast<double*>(b_->x);
+    for (int k = 0; k < n_; ++k) pb[k] = b[perm_[k]];
+    SerialOpenMpScope serial;
     // cholmod_solve2 keeps its result and workspace between calls.
     cholmod_solve2(CHOLMOD_A, factor_, b_, nullptr, &x_, nullptr, &y_, &e_, &common_);
-    std::memcpy(x, x_->x, sizeof(double) * n_);
+    const double* px = static_cast<const double*>(x_->x);
+    for (int k = 0; k < n_; ++k) x[perm_[k]] = px[k];
   }
 
   long FactorNonZeros() const override {
@@ -163,7 +219,10 @@ class Cholmod final : public SparseCholesky {
   std::vector<int> given_, used_;
 
   cholmod_common common_;
-  cholmod_sparse* a_ = nullptr;
+  cholmod_sparse* a_ = nullptr;         // H as the caller lays it out
+  cholmod_sparse* permuted_ = nullptr;  // P H P' in the triangle the method reads
+  std::vector<int> perm_;               // row k of permuted_ is row perm_[k] of H
+  std::vector<int> scatter_;            // entry k of a_ goes to scatter_[k] of permuted_
   cholmod_factor* factor_ = nullptr;
   cholmod_dense *b_ = nullptr, *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;
   int n_ = 0;

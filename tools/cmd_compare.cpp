@@ -69,7 +69,7 @@ int RunCompare(int argc, char** argv) {
   args.Option("linear-solver", &linear_solver, "NAME",
               "gn: auto (supernodal for 3D, simplicial for 2D), supernodal, simplicial, cholmod-auto or eigen");
   args.Option("gn-damping", &damping, "LAMBDA",
-              "gn: first damping tried when a Gauss-Newton step raises chi2");
+              "gn: Levenberg-Marquardt damping (times diag H) the fallback starts from, 1/radius as in Ceres");
   args.Option("sparse", &sparse, "LIB", "ceres: auto, suitesparse, eigen or cxsparse");
   args.Option("init", &init, "METHOD",
               "initial estimate for both: file (the file's vertices), odometry (chained "

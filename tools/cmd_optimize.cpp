@@ -100,7 +100,7 @@ int RunOptimize(int argc, char** argv) {
   args.Flag("gn-no-chord", &gn_no_chord,
             "gn: factorise at every step (no steps with an earlier factorisation)");
   args.Option("gn-damping", &gn_damping, "LAMBDA",
-              "gn: first damping tried when a Gauss-Newton step raises chi2");
+              "gn: Levenberg-Marquardt damping (times diag H) the fallback starts from, 1/radius as in Ceres");
   args.Option("report", &report, "FILE.json",
               "write a JSON report: initial_chi2, final_chi2, iterations, time_s, "
               "termination, timings and the per-iteration trace");

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <map>
 #include <stdexcept>
 #include <thread>
 
@@ -36,9 +35,11 @@ struct GaussNewtonProblem::Residual {
 struct GaussNewtonProblem::Workspace {
   // Per residual: its values, and for each parameter block the ambient
   // Jacobian (rows x size, Ceres's row-major layout) and the local one.
-  std::vector<int> residual_offset;                // into r
-  std::vector<std::vector<int>> jac_ambient_off;   // into jac_ambient
-  std::vector<std::vector<int>> jac_local_off;     // into jac_local
+  // Slot slot_start[k] + p is residual k's p-th parameter block.
+  std::vector<int> residual_offset;  // into r
+  std::vector<int> slot_start;
+  std::vector<int> jac_ambient_off;  // per slot, into jac_ambient; -1 for a constant block
+  std::vector<int> jac_local_off;    // per slot, into jac_local
   std::vector<double> r, jac_ambient, jac_local;
   std::vector<double> chi2_terms;                  // per residual, rho(|r|^2)
   // Per variable block: the manifold's PlusJacobian (size x tangent).
@@ -49,15 +50,19 @@ struct GaussNewtonProblem::Workspace {
   // at the first row of block r.
   std::vector<int> col_start;
   struct Contribution {
-    int residual, p, q;  // H(r, c) += Jp^T Jq (p feeds block r, q block c)
+    // H(r, c) += Jp^T Jq, Jp and Jq (m rows) at these offsets in jac_local.
+    int jp, jq, m;
   };
   struct HBlock {
     int row_block, col_block, start;  // start: index into col_start
-    std::vector<Contribution> terms;
+    int term_begin, term_end;         // its contributions, in `terms`
   };
-  std::vector<HBlock> h_blocks;
-  std::vector<int> h_block_order;  // h_blocks grouped by column block
-  std::vector<std::vector<std::pair<int, int>>> gradient_terms;  // per variable: (residual, p)
+  std::vector<HBlock> h_blocks;  // by column block, then row block
+  std::vector<Contribution> terms;
+  // Per variable v, gradient_terms[gradient_start[v] ...] are the (residual,
+  // p) whose J_p^T r add to its part of b.
+  std::vector<int> gradient_start;
+  std::vector<std::pair<int, int>> gradient_terms;
   std::vector<int> diagonal;  // value index of each H(i, i)
   std::vector<double> diagonal_saved;
   std::vector<double> b, dx, x_saved;
@@ -194,18 +199,25 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   for (const Residual& r : residuals_) w.max_arity = std::max(w.max_arity, r.blocks.size());
 
   // Residual and Jacobian storage.
-  int r_total = 0, ja_total = 0, jl_total = 0;
+  int r_total = 0, ja_total = 0, jl_total = 0, slots = 0;
   w.residual_offset.resize(residuals_.size());
-  w.jac_ambient_off.resize(residuals_.size());
-  w.jac_local_off.resize(residuals_.size());
+  w.slot_start.resize(residuals_.size() + 1);
+  for (size_t k = 0; k < residuals_.size(); ++k) {
+    w.slot_start[k] = slots;
+    slots += static_cast<int>(residuals_[k].blocks.size());
+  }
+  w.slot_start[residuals_.size()] = slots;
+  w.jac_ambient_off.resize(slots);
+  w.jac_local_off.resize(slots);
   for (size_t k = 0; k < residuals_.size(); ++k) {
     const int m = residuals_[k].cost->num_residuals();
     w.residual_offset[k] = r_total;
     r_total += m;
-    for (int b : residuals_[k].blocks) {
-      const Block& blk = blocks_[b];
-      w.jac_ambient_off[k].push_back(blk.variable >= 0 ? ja_total : -1);
-      w.jac_local_off[k].push_back(blk.variable >= 0 ? jl_total : -1);
+    for (size_t p = 0; p < residuals_[k].blocks.size(); ++p) {
+      const Block& blk = blocks_[residuals_[k].blocks[p]];
+      const int slot = w.slot_start[k] + static_cast<int>(p);
+      w.jac_ambient_off[slot] = blk.variable >= 0 ? ja_total : -1;
+      w.jac_local_off[slot] = blk.variable >= 0 ? jl_total : -1;
       if (blk.variable >= 0) {
         ja_total += m * blk.size;
         jl_total += m * blk.tangent;
@@ -225,34 +237,73 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   }
   w.plus_jac.resize(pj_total);
 
-  // Block pattern of H's upper triangle, and who contributes to each block.
-  std::map<std::pair<int, int>, int> h_index;  // (row var, col var) -> h_blocks
-  w.gradient_terms.resize(nvar);
-  for (size_t k = 0; k < residuals_.size(); ++k) {
-    const auto& rb = residuals_[k].blocks;
-    for (size_t p = 0; p < rb.size(); ++p) {
-      const int vp = blocks_[rb[p]].variable;
-      if (vp < 0) continue;
-      w.gradient_terms[vp].emplace_back(static_cast<int>(k), static_cast<int>(p));
+  // Who feeds each part of b and each block of H's upper triangle, bucketed
+  // by variable (column block) with flat arrays: on a 10,000-pose graph a
+  // tree of blocks cost more than the symbolic factorisation.
+  auto for_each_slot = [&](auto&& f) {
+    for (size_t k = 0; k < residuals_.size(); ++k) {
+      const auto& rb = residuals_[k].blocks;
+      for (size_t p = 0; p < rb.size(); ++p) {
+        const int vp = blocks_[rb[p]].variable;
+        if (vp >= 0) f(static_cast<int>(k), static_cast<int>(p), vp);
+      }
+    }
+  };
+  w.gradient_start.assign(nvar + 1, 0);
+  for_each_slot([&](int, int, int vp) { ++w.gradient_start[vp + 1]; });
+  for (int v = 0; v < nvar; ++v) w.gradient_start[v + 1] += w.gradient_start[v];
+  w.gradient_terms.resize(w.gradient_start[nvar]);
+  {
+    std::vector<int> next(w.gradient_start.begin(), w.gradient_start.end() - 1);
+    for_each_slot([&](int k, int p, int vp) { w.gradient_terms[next[vp]++] = {k, p}; });
+  }
+  // Each pair p, q of a residual's variables with row block <= column block
+  // adds Jp^T Jq to H(row, col).
+  struct Entry {
+    int row;
+    Workspace::Contribution c;
+  };
+  auto for_each_pair = [&](auto&& f) {
+    for_each_slot([&](int k, int p, int vp) {
+      const auto& rb = residuals_[k].blocks;
       for (size_t q = 0; q < rb.size(); ++q) {
         const int vq = blocks_[rb[q]].variable;
         if (vq < 0 || vp > vq) continue;
-        if (vp == vq && p != q) continue;  // a block listed twice is not supported below
-        auto [it, fresh] = h_index.emplace(std::make_pair(vp, vq), static_cast<int>(w.h_blocks.size()));
-        if (fresh) w.h_blocks.push_back({vp, vq, 0, {}});
-        w.h_blocks[it->second].terms.push_back({static_cast<int>(k), static_cast<int>(p),
-                                                static_cast<int>(q)});
+        if (vp == vq && p != static_cast<int>(q)) continue;  // a block listed twice is not supported below
+        const int slot = w.slot_start[k];
+        f(vp, vq, Workspace::Contribution{w.jac_local_off[slot + p], w.jac_local_off[slot + q],
+                                          residuals_[k].cost->num_residuals()});
       }
-    }
-  }
-  // Scalar CSC pattern of the upper triangle: per block column, the block
-  // rows in increasing order (h_index is sorted by (row, col); regroup).
-  std::vector<std::vector<int>> rows_of_col(nvar);
-  for (const auto& [rc, idx] : h_index) rows_of_col[rc.second].push_back(idx);
-  for (auto& v : rows_of_col)
-    std::sort(v.begin(), v.end(), [&](int a, int b) {
-      return w.h_blocks[a].row_block < w.h_blocks[b].row_block;
     });
+  };
+  std::vector<int> col_entries(nvar + 1, 0);
+  for_each_pair([&](int, int vq, const Workspace::Contribution&) { ++col_entries[vq + 1]; });
+  for (int v = 0; v < nvar; ++v) col_entries[v + 1] += col_entries[v];
+  std::vector<Entry> entries(col_entries[nvar]);
+  {
+    std::vector<int> next(col_entries.begin(), col_entries.end() - 1);
+    for_each_pair([&](int vp, int vq, const Workspace::Contribution& c) {
+      entries[next[vq]++] = Entry{vp, c};
+    });
+  }
+  // Within a column, by row block; a block's terms stay in residual order,
+  // so sums do not depend on how the pattern was found.
+  w.terms.reserve(entries.size());
+  std::vector<int> col_blocks(nvar + 1, 0);  // h_blocks of each column block
+  for (int c = 0; c < nvar; ++c) {
+    const auto first = entries.begin() + col_entries[c], last = entries.begin() + col_entries[c + 1];
+    std::stable_sort(first, last, [](const Entry& a, const Entry& b) { return a.row < b.row; });
+    for (auto e = first; e != last;) {
+      Workspace::HBlock hb{e->row, c, 0, static_cast<int>(w.terms.size()), 0};
+      for (const int row = e->row; e != last && e->row == row; ++e) w.terms.push_back(e->c);
+      hb.term_end = static_cast<int>(w.terms.size());
+      w.h_blocks.push_back(hb);
+    }
+    col_blocks[c + 1] = static_cast<int>(w.h_blocks.size());
+  }
+  std::vector<Entry>().swap(entries);
+
+  // Scalar CSC pattern of the upper triangle.
   std::vector<int> col_ptr(w.n + 1, 0), rows;
   for (auto& hb : w.h_blocks) {
     hb.start = static_cast<int>(w.col_start.size());
@@ -264,7 +315,7 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
     for (int j = 0; j < cb.tangent; ++j) {
       const int col = cb.offset + j;
       col_ptr[col] = static_cast<int>(rows.size());
-      for (int idx : rows_of_col[c]) {
+      for (int idx = col_blocks[c]; idx < col_blocks[c + 1]; ++idx) {
         const auto& hb = w.h_blocks[idx];
         const Block& rb = blocks_[variables[hb.row_block]];
         w.col_start[hb.start + j] = static_cast<int>(rows.size());
@@ -275,16 +326,13 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
     }
   }
   col_ptr[w.n] = static_cast<int>(rows.size());
-  for (int c = 0; c < nvar; ++c)
-    for (int idx : rows_of_col[c]) w.h_block_order.push_back(idx);
 
   w.b.resize(w.n);
   w.dx.resize(w.n);
   w.diagonal_saved.resize(w.n);
   for (int v : variables) w.x_saved.insert(w.x_saved.end(), blocks_[v].values, blocks_[v].values + blocks_[v].size);
 
-  w.linear_solver = ResolveCholeskyKind(
-      options.linear_solver, nvar > 0 ? static_cast<double>(w.n) / nvar : 0.0);
+  w.linear_solver = ResolveCholeskyKind(options.linear_solver);
   w.cholesky = SparseCholesky::Create(w.linear_solver);
   std::vector<int> block_sizes;
   for (int v : variables) block_sizes.push_back(blocks_[v].tangent);
@@ -365,8 +413,9 @@ double GaussNewtonProblem::Evaluate(bool jacobians) {
         const int m = res.cost->num_residuals();
         for (size_t p = 0; p < res.blocks.size(); ++p) {
           params[p] = blocks_[res.blocks[p]].values;
-          jac[p] = jacobians && w.jac_ambient_off[k][p] >= 0
-                       ? w.jac_ambient.data() + w.jac_ambient_off[k][p]
+          const int slot = w.slot_start[k] + static_cast<int>(p);
+          jac[p] = jacobians && w.jac_ambient_off[slot] >= 0
+                       ? w.jac_ambient.data() + w.jac_ambient_off[slot]
                        : nullptr;
         }
         double* r = w.r.data() + w.residual_offset[k];
@@ -385,7 +434,8 @@ double GaussNewtonProblem::Evaluate(bool jacobians) {
           if (!jac[p]) continue;
           const Block& blk = blocks_[res.blocks[p]];
           Eigen::Map<RowMatrix> ja(jac[p], m, blk.size);
-          Eigen::Map<RowMatrix> jl(w.jac_local.data() + w.jac_local_off[k][p], m, blk.tangent);
+          Eigen::Map<RowMatrix> jl(w.jac_local.data() + w.jac_local_off[w.slot_start[k] + p], m,
+                                   blk.tangent);
           if (blk.manifold) {
             const Eigen::Map<const RowMatrix> plus(w.plus_jac.data() + w.plus_jac_off[blk.variable],
                                                    blk.size, blk.tangent);
@@ -424,9 +474,11 @@ double GaussNewtonProblem::LinearizeGradient() {
       const Block& b = blocks_[variables[v]];
       Eigen::Map<Eigen::VectorXd> g(w.b.data() + b.offset, b.tangent);
       g.setZero();
-      for (const auto& [k, p] : w.gradient_terms[v]) {
+      for (int t = w.gradient_start[v]; t < w.gradient_start[v + 1]; ++t) {
+        const auto [k, p] = w.gradient_terms[t];
         const int m = residuals_[k].cost->num_residuals();
-        const Eigen::Map<const RowMatrix> jp(w.jac_local.data() + w.jac_local_off[k][p], m, b.tangent);
+        const Eigen::Map<const RowMatrix> jp(w.jac_local.data() + w.jac_local_off[w.slot_start[k] + p], m,
+                                             b.tangent);
         g.noalias() += jp.transpose() * Eigen::Map<const Eigen::VectorXd>(w.r.data() + w.residual_offset[k], m);
       }
     }
@@ -440,19 +492,19 @@ void GaussNewtonProblem::AssembleNormalMatrix() {
   Workspace& w = *ws_;
   const std::vector<int>& variables = w.variables;
   double* h = w.cholesky->values();
-  pool_->ParallelFor(w.h_block_order.size(), [&](size_t begin, size_t end) {
+  pool_->ParallelFor(w.h_blocks.size(), [&](size_t begin, size_t end) {
     // One buffer per chunk, sized for the largest block.
     Eigen::MatrixXd buffer(w.max_tangent, w.max_tangent);
     for (size_t t = begin; t < end; ++t) {
-      const auto& hb = w.h_blocks[w.h_block_order[t]];
+      const auto& hb = w.h_blocks[t];
       const int tr = blocks_[variables[hb.row_block]].tangent;
       const int tc = blocks_[variables[hb.col_block]].tangent;
       auto acc = buffer.topLeftCorner(tr, tc);
       acc.setZero();
-      for (const auto& c : hb.terms) {
-        const int m = residuals_[c.residual].cost->num_residuals();
-        const Eigen::Map<const RowMatrix> jp(w.jac_local.data() + w.jac_local_off[c.residual][c.p], m, tr);
-        const Eigen::Map<const RowMatrix> jq(w.jac_local.data() + w.jac_local_off[c.residual][c.q], m, tc);
+      for (int k = hb.term_begin; k < hb.term_end; ++k) {
+        const Workspace::Contribution& c = w.terms[k];
+        const Eigen::Map<const RowMatrix> jp(w.jac_local.data() + c.jp, c.m, tr);
+        const Eigen::Map<const RowMatrix> jq(w.jac_local.data() + c.jq, c.m, tc);
         acc.noalias() += jp.transpose() * jq;
       }
       const bool diag = hb.row_block == hb.col_block;
@@ -538,6 +590,8 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   Prepare(options);
   Workspace& w = *ws_;
   result.linear_solver = ToString(w.linear_solver);
+  if (w.linear_solver == CholeskyKind::kCholmodAuto && w.cholesky)
+    result.linear_solver += w.cholesky->IsSupernodal() ? ": supernodal" : ": simplicial";
   auto progress = [&](const IterationRecord& it) {
     if (options.verbose) std::fprintf(stderr, "%s\n", FormatIteration(it).c_str());
   };

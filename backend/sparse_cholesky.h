@@ -21,11 +21,12 @@ enum class CholeskyKind {
 CholeskyKind ParseCholeskyKind(const std::string& name);
 const char* ToString(CholeskyKind kind);
 
-// kAuto made concrete: CHOLMOD supernodal when the poses are 6-dof blocks
-// (3D: dense 6x6 blocks feed BLAS well), CHOLMOD simplicial for 3-dof
-// blocks (2D: supernodes stay small and their padding costs more than BLAS
-// saves). Measured in docs/benchmarks.md. Other kinds are returned as given.
-CholeskyKind ResolveCholeskyKind(CholeskyKind kind, double mean_block_size);
+// kAuto made concrete: CHOLMOD choosing per matrix between its supernodal
+// and simplicial methods by flops per nonzero of the factor. With cairn's
+// coarser supernodes that picks the faster one on every shared file
+// (simplicial for intel, MIT and manhattan, supernodal for city10000 and the
+// 3D files; docs/benchmarks.md). Other kinds are returned as given.
+CholeskyKind ResolveCholeskyKind(CholeskyKind kind);
 
 class SparseCholesky {
  public:

@@ -67,7 +67,7 @@ int RunCompare(int argc, char** argv) {
   args.Option("threads", &common.threads, "N", "threads for both (0: one per core)");
   args.Option("robust", &robust, "KIND:DELTA", "robust loss on loop closures for both");
   args.Option("linear-solver", &linear_solver, "NAME",
-              "gn: auto (supernodal for 3D, simplicial for 2D), supernodal, simplicial, cholmod-auto or eigen");
+              "gn: auto (CHOLMOD picks supernodal or simplicial per matrix), supernodal, simplicial, cholmod-auto or eigen");
   args.Option("gn-damping", &damping, "LAMBDA",
               "gn: Levenberg-Marquardt damping (times diag H) the fallback starts from, 1/radius as in Ceres");
   args.Option("sparse", &sparse, "LIB", "ceres: auto, suitesparse, eigen or cxsparse");
@@ -78,8 +78,16 @@ int RunCompare(int argc, char** argv) {
   args.Flag("gn-no-chord", &no_chord,
             "gn: factorise at every step (no steps with an earlier factorisation)");
   args.Flag("quiet", &quiet, "no per-iteration progress lines");
+  int repeat = 1;
+  args.Option("repeat", &repeat, "N",
+              "solve N times with each solver, alternating which goes first, and report each "
+              "one's fastest run: the first run in a process pays for fresh memory");
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
+  if (repeat < 1) {
+    std::fprintf(stderr, "cairn compare: --repeat must be at least 1\n");
+    return 2;
+  }
   common.loop_closure_loss = ParseRobustLoss(robust);
   common.verbose = !quiet;
   CeresOptions co;
@@ -100,10 +108,33 @@ int RunCompare(int argc, char** argv) {
     std::fprintf(stderr, "initial estimate: %s, %.4f s, chi2 %.10g\n", ToString(init_method),
                  init_report.time_s, init_report.chi2);
   PoseGraph ceres_graph = input, gn_graph = input;
-  if (!quiet) std::fprintf(stderr, "-- ceres --\n");
-  const SolveResult c = SolveWithCeres(ceres_graph, co);
-  if (!quiet) std::fprintf(stderr, "-- gn (%s) --\n", ToString(go.linear_solver));
-  const SolveResult g = SolveGaussNewton(gn_graph, go);
+  SolveResult c, g;
+  for (int round = 0; round < repeat; ++round) {
+    // Progress lines for the first round only; the others are for timing.
+    co.verbose = go.verbose = !quiet && round == 0;
+    auto run_ceres = [&] {
+      if (co.verbose) std::fprintf(stderr, "-- ceres --\n");
+      PoseGraph graph = input;
+      SolveResult r = SolveWithCeres(graph, co);
+      if (round == 0 || r.time_s < c.time_s) c = std::move(r), ceres_graph = std::move(graph);
+    };
+    auto run_gn = [&] {
+      if (go.verbose) std::fprintf(stderr, "-- gn (%s) --\n", ToString(go.linear_solver));
+      PoseGraph graph = input;
+      SolveResult r = SolveGaussNewton(graph, go);
+      if (round == 0 || r.time_s < g.time_s) g = std::move(r), gn_graph = std::move(graph);
+    };
+    if (round % 2 == 0) {
+      run_ceres();
+      run_gn();
+    } else {
+      run_gn();
+      run_ceres();
+    }
+  }
+  if (repeat > 1)
+    std::fprintf(stderr, "times: the fastest of %d runs of each solver, in alternating order\n",
+                 repeat);
   const PoseDifference d = ComparePoses(ceres_graph, gn_graph);
   const double chi2_rel = std::abs(c.final_chi2 - g.final_chi2) / std::max(c.final_chi2, 1e-300);
 

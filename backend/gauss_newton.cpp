@@ -173,6 +173,17 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   pool_ = std::make_unique<ThreadPool>(
       options.threads > 0 ? options.threads
                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  // A caller that only added to the problem (and says so with an ordering
+  // hint) keeps the old analysis, extended, when the new pattern allows.
+  std::unique_ptr<SparseCholesky> kept;
+  std::vector<int> kept_variables;
+  CholeskyKind kept_kind = CholeskyKind::kAuto;
+  if (ws_ && ws_->cholesky && !ordering_hint_.empty()) {
+    kept = std::move(ws_->cholesky);
+    kept_variables = std::move(ws_->variables);
+    kept_kind = ws_->linear_solver;
+  }
+  last_analysis_extended_ = false;
   ws_ = std::make_unique<Workspace>();
   Workspace& w = *ws_;
 
@@ -333,9 +344,18 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   for (int v : variables) w.x_saved.insert(w.x_saved.end(), blocks_[v].values, blocks_[v].values + blocks_[v].size);
 
   w.linear_solver = ResolveCholeskyKind(options.linear_solver);
-  w.cholesky = SparseCholesky::Create(w.linear_solver);
   std::vector<int> block_sizes;
   for (int v : variables) block_sizes.push_back(blocks_[v].tangent);
+  if (kept && kept_kind == w.linear_solver && kept_variables.size() <= variables.size() &&
+      std::equal(kept_variables.begin(), kept_variables.end(), variables.begin()) &&
+      kept->Extend(w.n, col_ptr, rows, block_sizes)) {
+    w.cholesky = std::move(kept);
+    last_analysis_extended_ = true;
+    ordering_hint_.clear();
+    return;
+  }
+  kept.reset();
+  w.cholesky = SparseCholesky::Create(w.linear_solver);
   if (!ordering_hint_.empty()) {
     std::vector<int> perm;
     std::vector<bool> placed(nvar, false);

@@ -78,8 +78,14 @@ class GaussNewtonProblem {
   // For a problem that only grew: the next Prepare eliminates the variable
   // blocks in this order (blocks not listed come last, in the order they
   // were added) instead of computing a fresh fill-reducing ordering.
-  // Honoured by the CHOLMOD solvers; Eigen orders by itself.
+  // Honoured by the CHOLMOD solvers; Eigen orders by itself. When the old
+  // variables are still the first ones and every new block of H lies in a
+  // new column (each new residual touches a new block, or only pairs H
+  // already had), Prepare goes further and extends the last analysis
+  // instead of redoing it (SparseCholesky::Extend).
   void SetOrderingHint(std::vector<const double*> order);
+  // Whether the last Prepare extended the analysis before it.
+  bool LastAnalysisExtended() const { return last_analysis_extended_; }
   // The elimination order of the variable blocks after Prepare (empty when
   // the linear solver does not report it), to pass back as a hint.
   std::vector<const double*> Ordering() const;
@@ -112,6 +118,7 @@ class GaussNewtonProblem {
   std::unique_ptr<Workspace> ws_;
   std::unique_ptr<ThreadPool> pool_;
   std::vector<const double*> ordering_hint_;
+  bool last_analysis_extended_ = false;
 };
 
 }  // namespace cairn

@@ -182,6 +182,7 @@ SolveResult IncrementalOptimizer::Optimize(SolverKind solver) {
     SolveResult result = gn_->Solve(o);
     gn_ordering_ = gn_->Ordering();
     if (gn_reorder_) ++gn_reorderings_;
+    if (gn_->LastAnalysisExtended()) ++gn_extensions_;
     gn_reorder_ = false;
     result.solver = "gn-incremental";
     result.setup_time_s += sync_s;
@@ -236,6 +237,7 @@ std::vector<Eigen::MatrixXd> IncrementalOptimizer::MarginalCovariances(
   gn_->Prepare(o);
   gn_ordering_ = gn_->Ordering();
   if (gn_reorder_) ++gn_reorderings_;
+  if (gn_->LastAnalysisExtended()) ++gn_extensions_;
   gn_reorder_ = false;
   std::vector<Eigen::MatrixXd> out;
   if (!gn_->MarginalCovariances(blocks, &out))

@@ -85,6 +85,9 @@ class IncrementalOptimizer {
   // How many fresh fill-reducing orderings the Gauss-Newton path computed
   // (the rest of its solves reused the previous one).
   int gauss_newton_reorderings() const { return gn_reorderings_; }
+  // How many of its solves extended the last symbolic analysis (the graph
+  // had only grown by poses and their edges) rather than redoing it.
+  int gauss_newton_extensions() const { return gn_extensions_; }
 
  private:
   void SyncCeres();
@@ -106,6 +109,7 @@ class IncrementalOptimizer {
   size_t gn_ordered_variables_ = 0;  // variables when the ordering was computed
   bool gn_reorder_ = true;
   int gn_reorderings_ = 0;
+  int gn_extensions_ = 0;
 };
 
 }  // namespace cairn

@@ -39,7 +39,7 @@ class Cholmod final : public SparseCholesky {
  public:
   explicit Cholmod(int mode) {
     cholmod_start(&common_);
-    common_.supernodal = mode;
+    common_.supernodal = mode_ = mode;
     // AMD alone: the default also tries METIS/NESDIS, which costs more in the
     // one-off analysis than it saves on pose graphs.
     common_.nmethods = 1;
@@ -73,20 +73,17 @@ class Cholmod final : public SparseCholesky {
 
   void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
                const std::vector<int>& block_sizes) override {
-    n_ = n;
-    a_ = cholmod_allocate_sparse(n, n, rows.size(), /*sorted=*/1, /*packed=*/1, /*stype=*/1,
-                                 CHOLMOD_REAL, &common_);
-    if (!a_) throw std::runtime_error("CHOLMOD: out of memory allocating the normal matrix");
-    std::memcpy(a_->p, col_ptr.data(), sizeof(int) * (n + 1));
-    std::memcpy(a_->i, rows.data(), sizeof(int) * rows.size());
-    std::memset(a_->x, 0, sizeof(double) * rows.size());
+    Release();
+    SetPattern(n, col_ptr, rows);
     const std::vector<int> perm = ScalarOrdering(n, col_ptr, rows, block_sizes);
     SerialOpenMpScope serial;
     // This first analysis is for the final (postordered) permutation only;
     // the simplicial one gives it without building supernodes, except when
     // CHOLMOD is to choose the method.
-    const int mode = common_.supernodal;
-    if (mode != CHOLMOD_AUTO) common_.supernodal = CHOLMOD_SIMPLICIAL;
+    const int mode = mode_;
+    common_.supernodal = mode == CHOLMOD_AUTO ? CHOLMOD_AUTO : CHOLMOD_SIMPLICIAL;
+    common_.method[0].ordering = CHOLMOD_AMD;
+    common_.postorder = 1;
     cholmod_factor* ordered = nullptr;
     if (!perm.empty()) {
       common_.method[0].ordering = CHOLMOD_GIVEN;
@@ -95,61 +92,38 @@ class Cholmod final : public SparseCholesky {
       ordered = cholmod_analyze(a_, &common_);
     }
     if (!ordered) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
-    const bool supernodal = mode == CHOLMOD_AUTO ? ordered->is_super : mode == CHOLMOD_SUPERNODAL;
-    common_.supernodal = supernodal ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
-    // cholmod_factorize would permute (and transpose) A into a fresh matrix
-    // at every call: two transposes for the simplicial method, one for the
-    // supernodal, and their allocations. Instead the permuted matrix is laid
-    // out here once, in the triangle each method reads without copying, and
-    // each factorisation only scatters the values into it.
+    supernodal_ = mode == CHOLMOD_AUTO ? ordered->is_super : mode == CHOLMOD_SUPERNODAL;
     perm_.assign(static_cast<const int*>(ordered->Perm), static_cast<const int*>(ordered->Perm) + n);
     cholmod_free_factor(&ordered, &common_);
-    const bool upper = !supernodal;  // the simplicial method reads triu, the supernodal tril
-    std::vector<int> inverse(n);
-    for (int k = 0; k < n; ++k) inverse[perm_[k]] = k;
-    const size_t nnz = rows.size();
-    // Entry k of H (row rows[k] of column j) lands at (new_row, new_col).
-    auto place = [&](int k, int j, int* new_row, int* new_col) {
-      const int pi = inverse[rows[k]], pj = inverse[j];
-      *new_row = upper ? std::min(pi, pj) : std::max(pi, pj);
-      *new_col = upper ? std::max(pi, pj) : std::min(pi, pj);
-    };
-    // Counting sort by row, then stably by column: rows sorted in columns.
-    std::vector<int> row_start(n + 1, 0), by_row(nnz);
-    int r, c;
-    for (int j = 0; j < n; ++j)
-      for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) place(k, j, &r, &c), ++row_start[r + 1];
-    for (int i = 0; i < n; ++i) row_start[i + 1] += row_start[i];
-    std::vector<int> next(row_start.begin(), row_start.end() - 1);
-    scatter_.resize(nnz);  // first the column of each entry, then its place
-    for (int j = 0; j < n; ++j)
-      for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) {
-        place(k, j, &r, &c);
-        by_row[next[r]++] = k;
-        scatter_[k] = c;
-      }
-    std::vector<int> col_start(n + 1, 0);
-    for (size_t k = 0; k < nnz; ++k) ++col_start[scatter_[k] + 1];
-    for (int i = 0; i < n; ++i) col_start[i + 1] += col_start[i];
-    permuted_ = cholmod_allocate_sparse(n, n, nnz, /*sorted=*/1, /*packed=*/1, upper ? 1 : -1,
-                                        CHOLMOD_REAL, &common_);
-    if (!permuted_) throw std::runtime_error("CHOLMOD: out of memory allocating the normal matrix");
-    std::memcpy(permuted_->p, col_start.data(), sizeof(int) * (n + 1));
-    int* pi = static_cast<int*>(permuted_->i);
-    for (int row = 0; row < n; ++row)
-      for (int t = row_start[row]; t < row_start[row + 1]; ++t) {
-        const int k = by_row[t];
-        const int at = col_start[scatter_[k]]++;
-        pi[at] = row;
-        scatter_[k] = at;
-      }
-    std::memset(permuted_->x, 0, sizeof(double) * nnz);
-    // Already in the fill-reducing order (postordered): analysed as is.
-    common_.method[0].ordering = CHOLMOD_NATURAL;
-    common_.postorder = 0;
-    factor_ = cholmod_analyze(permuted_, &common_);
-    if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
-    b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, &common_);
+    AnalyzePermuted(rows, col_ptr);
+  }
+
+  bool Extend(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
+              const std::vector<int>& block_sizes) override {
+    // Only a matrix that grew by columns (and rows) at the end, the old
+    // pattern untouched, keeps its elimination order.
+    if (!a_ || !factor_ || n < n_) return false;
+    const int* old_p = static_cast<const int*>(a_->p);
+    const int* old_i = static_cast<const int*>(a_->i);
+    const size_t old_nnz = static_cast<size_t>(old_p[n_]);
+    if (rows.size() < old_nnz || !std::equal(old_p, old_p + n_ + 1, col_ptr.begin()) ||
+        !std::equal(old_i, old_i + old_nnz, rows.begin()))
+      return false;
+    const int old_n = n_;
+    Release();
+    SetPattern(n, col_ptr, rows);
+    // The new unknowns are eliminated last, in their own order: their
+    // edges then reach only the end of the elimination, and the old part
+    // of the factor keeps its fill. (IncrementalOptimizer orders afresh
+    // once the graph has grown enough for that to matter.)
+    for (int k = old_n; k < n; ++k) perm_.push_back(k);
+    if (!used_.empty()) {
+      const int old_blocks = static_cast<int>(used_.size());
+      for (int b = old_blocks; b < static_cast<int>(block_sizes.size()); ++b) used_.push_back(b);
+    }
+    SerialOpenMpScope serial;
+    AnalyzePermuted(rows, col_ptr);
+    return true;
   }
 
   double* values() override { return static_cast<double*>(a_->x); }
@@ -197,6 +171,81 @@ class Cholmod final : public SparseCholesky {
   std::vector<int> BlockOrdering() const override { return used_; }
 
  private:
+  void Release() {
+    if (factor_) cholmod_free_factor(&factor_, &common_);
+    if (a_) cholmod_free_sparse(&a_, &common_);
+    if (permuted_) cholmod_free_sparse(&permuted_, &common_);
+    for (cholmod_dense** d : {&b_, &x_, &y_, &e_})
+      if (*d) cholmod_free_dense(d, &common_);
+  }
+
+  void SetPattern(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows) {
+    n_ = n;
+    a_ = cholmod_allocate_sparse(n, n, rows.size(), /*sorted=*/1, /*packed=*/1, /*stype=*/1,
+                                 CHOLMOD_REAL, &common_);
+    if (!a_) throw std::runtime_error("CHOLMOD: out of memory allocating the normal matrix");
+    std::memcpy(a_->p, col_ptr.data(), sizeof(int) * (n + 1));
+    std::memcpy(a_->i, rows.data(), sizeof(int) * rows.size());
+    std::memset(a_->x, 0, sizeof(double) * rows.size());
+  }
+
+  // cholmod_factorize would permute (and transpose) A into a fresh matrix
+  // at every call: two transposes for the simplicial method, one for the
+  // supernodal, and their allocations. Instead the permuted matrix (by
+  // perm_, which holds CHOLMOD's postorder) is laid out here once, in the
+  // triangle each method reads without copying, and each factorisation only
+  // scatters the values into it; its symbolic factor needs no ordering.
+  void AnalyzePermuted(const std::vector<int>& rows, const std::vector<int>& col_ptr) {
+    const int n = n_;
+    const bool upper = !supernodal_;  // the simplicial method reads triu, the supernodal tril
+    std::vector<int> inverse(n);
+    for (int k = 0; k < n; ++k) inverse[perm_[k]] = k;
+    const size_t nnz = rows.size();
+    // Entry k of H (row rows[k] of column j) lands at (new_row, new_col).
+    auto place = [&](int k, int j, int* new_row, int* new_col) {
+      const int pi = inverse[rows[k]], pj = inverse[j];
+      *new_row = upper ? std::min(pi, pj) : std::max(pi, pj);
+      *new_col = upper ? std::max(pi, pj) : std::min(pi, pj);
+    };
+    // Counting sort by row, then stably by column: rows sorted in columns.
+    std::vector<int> row_start(n + 1, 0), by_row(nnz);
+    int r, c;
+    for (int j = 0; j < n; ++j)
+      for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) place(k, j, &r, &c), ++row_start[r + 1];
+    for (int i = 0; i < n; ++i) row_start[i + 1] += row_start[i];
+    std::vector<int> next(row_start.begin(), row_start.end() - 1);
+    scatter_.resize(nnz);  // first the column of each entry, then its place
+    for (int j = 0; j < n; ++j)
+      for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) {
+        place(k, j, &r, &c);
+        by_row[next[r]++] = k;
+        scatter_[k] = c;
+      }
+    std::vector<int> col_start(n + 1, 0);
+    for (size_t k = 0; k < nnz; ++k) ++col_start[scatter_[k] + 1];
+    for (int i = 0; i < n; ++i) col_start[i + 1] += col_start[i];
+    permuted_ = cholmod_allocate_sparse(n, n, nnz, /*sorted=*/1, /*packed=*/1, upper ? 1 : -1,
+                                        CHOLMOD_REAL, &common_);
+    if (!permuted_) throw std::runtime_error("CHOLMOD: out of memory allocating the normal matrix");
+    std::memcpy(permuted_->p, col_start.data(), sizeof(int) * (n + 1));
+    int* pi = static_cast<int*>(permuted_->i);
+    for (int row = 0; row < n; ++row)
+      for (int t = row_start[row]; t < row_start[row + 1]; ++t) {
+        const int k = by_row[t];
+        const int at = col_start[scatter_[k]]++;
+        pi[at] = row;
+        scatter_[k] = at;
+      }
+    std::memset(permuted_->x, 0, sizeof(double) * nnz);
+    // Already in the fill-reducing order (postordered): analysed as is.
+    common_.method[0].ordering = CHOLMOD_NATURAL;
+    common_.postorder = 0;
+    common_.supernodal = supernodal_ ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
+    factor_ = cholmod_analyze(permuted_, &common_);
+    if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
+    b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, &common_);
+  }
+
   // AMD on the block graph (or the given block ordering), expanded to
   // scalars; empty when not blocked.
   std::vector<int> ScalarOrdering(int n, const std::vector<int>& col_ptr,
@@ -252,6 +301,8 @@ class Cholmod final : public SparseCholesky {
   std::vector<int> perm_;               // row k of permuted_ is row perm_[k] of H
   std::vector<int> scatter_;            // entry k of a_ goes to scatter_[k] of permuted_
   cholmod_factor* factor_ = nullptr;
+  bool supernodal_ = false;
+  int mode_ = CHOLMOD_AUTO;  // as asked: supernodal, simplicial or CHOLMOD's choice
   cholmod_dense *b_ = nullptr, *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;
   int n_ = 0;
 };

@@ -39,6 +39,16 @@ class SparseCholesky {
   // fill-reducing ordering is then computed on the far smaller block graph.
   virtual void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
                        const std::vector<int>& block_sizes = {}) = 0;
+  // For a matrix that grew: the pattern of the last Analyze (or Extend) is
+  // the leading part of this one, which only adds columns (and rows) at the
+  // end. Keeps the elimination order, with the new unknowns eliminated
+  // last, and derives the rest of the analysis from it without any ordering
+  // work. False (nothing changed) when the pattern is not such an
+  // extension or the backend cannot extend: Analyze then.
+  virtual bool Extend(int /*n*/, const std::vector<int>& /*col_ptr*/,
+                      const std::vector<int>& /*rows*/, const std::vector<int>& /*block_sizes*/ = {}) {
+    return false;
+  }
   // The matrix's values, in the order of `rows`; callers write into it.
   virtual double* values() = 0;
   // False when the matrix is not positive definite.

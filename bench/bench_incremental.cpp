@@ -145,6 +145,7 @@ void BM_AddPoseAndReoptimize(benchmark::State& state) {
   state.counters["setup_ms"] = 1e3 * setup / state.iterations();
   state.counters["poses"] = static_cast<double>(opt.graph().vertices().size());
   state.counters["reorderings"] = opt.gauss_newton_reorderings();
+  state.counters["extensions"] = opt.gauss_newton_extensions();
 }
 
 BENCHMARK(BM_ColdSolve)->Args({2, 0})->Args({2, 1})->Args({3, 0})->Args({3, 1})

@@ -6,6 +6,8 @@
 #include <ceres/autodiff_cost_function.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
+#include <cstdlib>
 #include <random>
 
 #include "backend/ceres_solver.h"
@@ -13,6 +15,7 @@
 #include "backend/graph_gauss_newton.h"
 #include "backend/pose_difference.h"
 #include "backend/simulate.h"
+#include "backend/sparse_cholesky.h"
 
 namespace cairn {
 namespace {
@@ -236,6 +239,117 @@ TEST(GaussNewton, ChordStepsReachTheSameOptimumWithFewerFactorisations) {
     EXPECT_LT((ToSE3(full.vertices()[i].x).translation() -
                ToSE3(chord.vertices()[i].x).translation()).norm(),
               1e-7);
+}
+
+}  // namespace
+}  // namespace cairn
+
+namespace cairn {
+namespace {
+
+// The upper triangle (compressed columns) of a random sparse SPD matrix of
+// 3x3 blocks: a chain of blocks plus a few random couplings, with every
+// coupling between blocks i < j listed in block column j.
+struct BlockMatrix {
+  int blocks = 0;
+  std::vector<std::pair<int, int>> couplings;  // (i, j), i < j
+  Eigen::MatrixXd Dense(unsigned seed) const {
+    const int n = 3 * blocks;
+    std::srand(seed);
+    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(n, n);
+    for (const auto& [i, j] : couplings) {
+      const Eigen::Matrix3d c = Eigen::Matrix3d::Random();
+      a.block<3, 3>(3 * i, 3 * j) = c;
+      a.block<3, 3>(3 * j, 3 * i) = c.transpose();
+    }
+    // Diagonally dominant, hence positive definite.
+    for (int k = 0; k < n; ++k) a(k, k) = a.row(k).cwiseAbs().sum() + 1.0;
+    return a;
+  }
+  // The pattern: full blocks, upper triangle only, rows sorted.
+  void Pattern(std::vector<int>* col_ptr, std::vector<int>* rows) const {
+    const int n = 3 * blocks;
+    std::vector<std::vector<int>> above(blocks);  // block rows above the diagonal
+    for (const auto& [i, j] : couplings) above[j].push_back(i);
+    col_ptr->assign(1, 0);
+    rows->clear();
+    for (int b = 0; b < blocks; ++b) {
+      std::sort(above[b].begin(), above[b].end());
+      for (int c = 0; c < 3; ++c) {
+        for (int i : above[b])
+          for (int r = 0; r < 3; ++r) rows->push_back(3 * i + r);
+        for (int r = 0; r <= c; ++r) rows->push_back(3 * b + r);
+        col_ptr->push_back(static_cast<int>(rows->size()));
+      }
+    }
+    (void)n;
+  }
+};
+
+Eigen::VectorXd SolveWith(SparseCholesky& chol, const Eigen::MatrixXd& a,
+                          const std::vector<int>& col_ptr, const std::vector<int>& rows,
+                          const Eigen::VectorXd& b) {
+  double* v = chol.values();
+  for (int j = 0; j + 1 < static_cast<int>(col_ptr.size()); ++j)
+    for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) v[k] = a(rows[k], j);
+  EXPECT_TRUE(chol.Factorize());
+  Eigen::VectorXd x(b.size());
+  chol.Solve(b.data(), x.data());
+  return x;
+}
+
+TEST(SparseCholesky, ExtendKeepsTheOrderAndSolvesTheGrownMatrix) {
+  for (CholeskyKind kind : {CholeskyKind::kCholmodSupernodal, CholeskyKind::kCholmodSimplicial,
+                            CholeskyKind::kCholmodAuto}) {
+    BlockMatrix m;
+    m.blocks = 40;
+    for (int i = 0; i + 1 < m.blocks; ++i) m.couplings.push_back({i, i + 1});
+    for (int k = 0; k < 12; ++k) {
+      const int i = (7 * k) % 30, j = i + 5 + k % 4;
+      m.couplings.push_back({i, j});
+    }
+    std::vector<int> col_ptr, rows;
+    m.Pattern(&col_ptr, &rows);
+    auto chol = SparseCholesky::Create(kind);
+    chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
+    Eigen::MatrixXd a = m.Dense(1);
+    Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(a.rows(), -1, 2);
+    EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - a.ldlt().solve(b)).norm(), 1e-10);
+    const std::vector<int> order = chol->BlockOrdering();
+
+    // Two new blocks, coupled to old ones and to each other: columns at the end.
+    BlockMatrix grown = m;
+    grown.blocks += 2;
+    grown.couplings.push_back({m.blocks - 1, m.blocks});
+    grown.couplings.push_back({3, m.blocks});
+    grown.couplings.push_back({m.blocks, m.blocks + 1});
+    grown.couplings.push_back({17, m.blocks + 1});
+    std::vector<int> grown_ptr, grown_rows;
+    grown.Pattern(&grown_ptr, &grown_rows);
+    ASSERT_TRUE(chol->Extend(3 * grown.blocks, grown_ptr, grown_rows,
+                             std::vector<int>(grown.blocks, 3)));
+    std::vector<int> extended = chol->BlockOrdering();
+    if (!order.empty()) {
+      ASSERT_EQ(extended.size(), order.size() + 2);
+      EXPECT_TRUE(std::equal(order.begin(), order.end(), extended.begin()));
+      EXPECT_EQ(extended[order.size()], m.blocks);
+      EXPECT_EQ(extended[order.size() + 1], m.blocks + 1);
+    }
+    a = grown.Dense(2);
+    b = Eigen::VectorXd::LinSpaced(a.rows(), 3, -1);
+    EXPECT_LT((SolveWith(*chol, a, grown_ptr, grown_rows, b) - a.ldlt().solve(b)).norm(), 1e-10)
+        << ToString(kind);
+
+    // A coupling between two old blocks changes an old column: refused,
+    // and the factorisation is left as it was.
+    BlockMatrix changed = grown;
+    changed.couplings.push_back({2, 20});
+    std::vector<int> changed_ptr, changed_rows;
+    changed.Pattern(&changed_ptr, &changed_rows);
+    EXPECT_FALSE(chol->Extend(3 * changed.blocks, changed_ptr, changed_rows,
+                              std::vector<int>(changed.blocks, 3)));
+    EXPECT_LT((SolveWith(*chol, a, grown_ptr, grown_rows, b) - a.ldlt().solve(b)).norm(), 1e-10);
+  }
 }
 
 }  // namespace

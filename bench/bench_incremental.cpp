@@ -2,10 +2,11 @@
 // 10,000-pose graph: the cold solve builds the problem and optimises from
 // odometry; the re-optimisation adds one pose with its odometry (and a loop
 // closure) to an optimised graph and optimises again, warm-started, with the
-// problem kept (Gauss-Newton: with its ordering kept too, or recomputed).
+// problem kept (Gauss-Newton: its symbolic analysis extended, or redone).
 //   build/bench/bench_incremental
 // Args: dimension, solver (0 Ceres, 1 Gauss-Newton), then for the warm
-// case: add a loop closure (0/1), keep the Gauss-Newton ordering (0/1).
+// case: add a loop closure (0/1), extend the Gauss-Newton analysis (1) or
+// redo it with a fresh ordering at every solve (0).
 #include <benchmark/benchmark.h>
 
 #include <limits>

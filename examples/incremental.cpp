@@ -37,8 +37,9 @@ int main() {
       ++solves;
     }
   }
-  std::printf("%d solves, %d iterations in all; %d fresh orderings\n", solves, total_iterations,
-              optimizer.gauss_newton_reorderings());
+  std::printf("%d solves, %d iterations in all; %d fresh orderings, %d extended analyses\n",
+              solves, total_iterations, optimizer.gauss_newton_reorderings(),
+              optimizer.gauss_newton_extensions());
 
   const int64_t last = sim_options.poses - 1;
   const auto cov = optimizer.MarginalCovariances({last}, cairn::SolverKind::kGaussNewton);

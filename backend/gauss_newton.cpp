@@ -426,8 +426,10 @@ bool GaussNewtonProblem::MarginalCovariances(const std::vector<const double*>& w
 double GaussNewtonProblem::Evaluate(bool jacobians) {
   Workspace& w = *ws_;
   pool_->ParallelFor(residuals_.size(), [&](size_t begin, size_t end) {
-      std::vector<const double*> params(w.max_arity);
-      std::vector<double*> jac(w.max_arity);
+      // Per worker thread, grown once: no allocation once iterating.
+      thread_local std::vector<const double*> params;
+      thread_local std::vector<double*> jac;
+      if (params.size() < w.max_arity) params.resize(w.max_arity), jac.resize(w.max_arity);
       for (size_t k = begin; k < end; ++k) {
         const Residual& res = residuals_[k];
         const int m = res.cost->num_residuals();
@@ -513,8 +515,9 @@ void GaussNewtonProblem::AssembleNormalMatrix() {
   const std::vector<int>& variables = w.variables;
   double* h = w.cholesky->values();
   pool_->ParallelFor(w.h_blocks.size(), [&](size_t begin, size_t end) {
-    // One buffer per chunk, sized for the largest block.
-    Eigen::MatrixXd buffer(w.max_tangent, w.max_tangent);
+    // One buffer per worker thread, sized for the largest block.
+    thread_local Eigen::MatrixXd buffer;
+    if (buffer.rows() < w.max_tangent) buffer.resize(w.max_tangent, w.max_tangent);
     for (size_t t = begin; t < end; ++t) {
       const auto& hb = w.h_blocks[t];
       const int tr = blocks_[variables[hb.row_block]].tangent;
@@ -589,7 +592,8 @@ void GaussNewtonProblem::RestoreEstimate() {
 void GaussNewtonProblem::ApplyStep() {
   Workspace& w = *ws_;
   pool_->ParallelFor(w.variables.size(), [&](size_t begin, size_t end) {
-    std::vector<double> tmp(w.max_size);
+    thread_local std::vector<double> tmp;
+    if (tmp.size() < static_cast<size_t>(w.max_size)) tmp.resize(w.max_size);
     for (size_t v = begin; v < end; ++v) {
       Block& b = blocks_[w.variables[v]];
       const double* d = w.dx.data() + b.offset;

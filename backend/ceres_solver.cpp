@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "backend/chi2.h"
-#include "backend/openmp_scope.h"
+#include "backend/serial_scope.h"
 #include "backend/graph_factors.h"
 #include "cholmod.h"
 #include "factors/pose_manifold.h"
@@ -250,7 +250,7 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
   result.setup_time_s = Seconds(start);
 
   ceres::Solver::Summary summary;
-  SerialOpenMpScope serial;  // for CHOLMOD inside Ceres as for ours
+  SerialLinearAlgebraScope serial;  // for CHOLMOD and BLAS inside Ceres as for ours
   ceres::Solve(so, &graph_problem.problem(), &summary);
 
   result.final_chi2 = Chi2(graph);

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "backend/parallel.h"
+#include "backend/serial_scope.h"
 
 namespace cairn {
 
@@ -609,6 +610,7 @@ void GaussNewtonProblem::ApplyStep() {
 
 SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
+  SerialLinearAlgebraScope serial;  // the factorisations' libraries on this thread alone
   SolveResult result;
   result.solver = "gn";
   Prepare(options);

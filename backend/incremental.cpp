@@ -10,7 +10,7 @@
 #include "backend/chi2.h"
 #include "backend/covariance.h"
 #include "backend/graph_factors.h"
-#include "backend/openmp_scope.h"
+#include "backend/serial_scope.h"
 #include "factors/pose_manifold.h"
 
 namespace cairn {
@@ -199,7 +199,7 @@ SolveResult IncrementalOptimizer::Optimize(SolverKind solver) {
   so.minimizer_progress_to_stdout = options_.ceres.verbose;
   result.setup_time_s = Seconds(start);
   ceres::Solver::Summary summary;
-  SerialOpenMpScope serial;  // for CHOLMOD inside Ceres as for ours
+  SerialLinearAlgebraScope serial;  // for CHOLMOD and BLAS inside Ceres as for ours
   ceres::Solve(so, ceres_.get(), &summary);
   result.final_chi2 = Chi2(graph_);
   result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;

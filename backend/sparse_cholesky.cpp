@@ -1,6 +1,6 @@
 #include "backend/sparse_cholesky.h"
 
-#include "backend/openmp_scope.h"
+#include "backend/serial_scope.h"
 
 #include <cholmod.h>
 
@@ -76,7 +76,7 @@ class Cholmod final : public SparseCholesky {
     Release();
     SetPattern(n, col_ptr, rows);
     const std::vector<int> perm = ScalarOrdering(n, col_ptr, rows, block_sizes);
-    SerialOpenMpScope serial;
+    SerialLinearAlgebraScope serial;
     // This first analysis is for the final (postordered) permutation only;
     // the simplicial one gives it without building supernodes, except when
     // CHOLMOD is to choose the method.
@@ -121,7 +121,7 @@ class Cholmod final : public SparseCholesky {
       const int old_blocks = static_cast<int>(used_.size());
       for (int b = old_blocks; b < static_cast<int>(block_sizes.size()); ++b) used_.push_back(b);
     }
-    SerialOpenMpScope serial;
+    SerialLinearAlgebraScope serial;
     AnalyzePermuted(rows, col_ptr);
     return true;
   }
@@ -132,7 +132,7 @@ class Cholmod final : public SparseCholesky {
     const double* from = static_cast<const double*>(a_->x);
     double* to = static_cast<double*>(permuted_->x);
     for (size_t k = 0; k < scatter_.size(); ++k) to[scatter_[k]] = from[k];
-    SerialOpenMpScope serial;
+    SerialLinearAlgebraScope serial;
     const int ok = cholmod_factorize(permuted_, factor_, &common_);
     return ok && common_.status == CHOLMOD_OK;
   }
@@ -140,7 +140,7 @@ class Cholmod final : public SparseCholesky {
   void Solve(const double* b, double* x) override {
     double* pb = static_cast<double*>(b_->x);
     for (int k = 0; k < n_; ++k) pb[k] = b[perm_[k]];
-    SerialOpenMpScope serial;
+    SerialLinearAlgebraScope serial;
     // cholmod_solve2 keeps its result and workspace between calls.
     cholmod_solve2(CHOLMOD_A, factor_, b_, nullptr, &x_, nullptr, &y_, &e_, &common_);
     const double* px = static_cast<const double*>(x_->x);

@@ -1,6 +1,7 @@
 // The hand-written Gauss-Newton path: a linear problem in one step, the same
 // optimum as Ceres on the same factors, gauge and fixed vertices, the damped
 // fallback, and both linear solvers.
+#include <dlfcn.h>
 #include <gtest/gtest.h>
 
 #include <ceres/autodiff_cost_function.h>
@@ -14,6 +15,7 @@
 #include "backend/chi2.h"
 #include "backend/graph_gauss_newton.h"
 #include "backend/pose_difference.h"
+#include "backend/serial_scope.h"
 #include "backend/simulate.h"
 #include "backend/sparse_cholesky.h"
 
@@ -350,6 +352,34 @@ TEST(SparseCholesky, ExtendKeepsTheOrderAndSolvesTheGrownMatrix) {
                               std::vector<int>(changed.blocks, 3)));
     EXPECT_LT((SolveWith(*chol, a, grown_ptr, grown_rows, b) - a.ldlt().solve(b)).norm(), 1e-10);
   }
+}
+
+}  // namespace
+}  // namespace cairn
+
+namespace cairn {
+namespace {
+
+TEST(SerialLinearAlgebraScope, TurnsLibraryThreadsOffAndRestoresThem) {
+  auto get_levels = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "omp_get_max_active_levels"));
+  auto get_blas = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
+  auto set_blas = reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+  if (!get_levels && !get_blas) GTEST_SKIP() << "neither OpenMP nor OpenBLAS is loaded";
+  if (set_blas) set_blas(2);
+  const int levels = get_levels ? get_levels() : 0;
+  {
+    SerialLinearAlgebraScope outer;
+    if (get_levels) EXPECT_EQ(get_levels(), 0);
+    if (get_blas) EXPECT_EQ(get_blas(), 1);
+    {
+      SerialLinearAlgebraScope inner;  // nests
+      if (get_blas) EXPECT_EQ(get_blas(), 1);
+    }
+    if (get_levels) EXPECT_EQ(get_levels(), 0);
+    if (get_blas) EXPECT_EQ(get_blas(), 1);
+  }
+  if (get_levels) EXPECT_EQ(get_levels(), levels);
+  if (get_blas) EXPECT_EQ(get_blas(), 2);
 }
 
 }  // namespace

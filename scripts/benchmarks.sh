@@ -16,7 +16,7 @@ for spec in 2d/intel:file 2d/MIT:file 2d/MIT:spanning-tree 2d/manhattan:file 2d/
             3d/smallGrid3D:file 3d/sphere2500:file 3d/parking-garage:file; do
   f=${spec%%:*}; init=${spec##*:}
   [ -f "$data/$f.g2o" ] || { echo "| $f | missing | | | | | | | |"; continue; }
-  "$build/cairn" compare --quiet --repeat "${REPEAT:-3}" --init "$init" --json "$tmp/r.json" "$data/$f.g2o" > "$tmp/out.txt" || true
+  "$build/cairn" compare --quiet --repeat "${REPEAT:-3}" --init "$init" --json "$tmp/r.json" "$data/$f.g2o" > "$tmp/out.txt" 2> "$tmp/err.txt" || true
   python3 - "$f" "$init" "$tmp/r.json" <<'PY'
 import json, sys
 f, init, path = sys.argv[1:4]

@@ -75,27 +75,29 @@ class Cholmod final : public SparseCholesky {
                const std::vector<int>& block_sizes) override {
     Release();
     SetPattern(n, col_ptr, rows);
-    const std::vector<int> perm = ScalarOrdering(n, col_ptr, rows, block_sizes);
+    std::vector<int> perm = ScalarOrdering(n, col_ptr, rows, block_sizes);
     SerialLinearAlgebraScope serial;
-    // This first analysis is for the final (postordered) permutation only;
-    // the simplicial one gives it without building supernodes, except when
-    // CHOLMOD is to choose the method.
-    const int mode = mode_;
-    common_.supernodal = mode == CHOLMOD_AUTO ? CHOLMOD_AUTO : CHOLMOD_SIMPLICIAL;
-    common_.method[0].ordering = CHOLMOD_AMD;
-    common_.postorder = 1;
-    cholmod_factor* ordered = nullptr;
-    if (!perm.empty()) {
-      common_.method[0].ordering = CHOLMOD_GIVEN;
-      ordered = cholmod_analyze_p(a_, const_cast<int*>(perm.data()), nullptr, 0, &common_);
-    } else {
-      ordered = cholmod_analyze(a_, &common_);
+    if (perm.empty()) {
+      // Not blocked: CHOLMOD orders (AMD, postordered) and the permutation
+      // is taken from its analysis.
+      common_.supernodal = mode_ == CHOLMOD_AUTO ? CHOLMOD_AUTO : CHOLMOD_SIMPLICIAL;
+      common_.method[0].ordering = CHOLMOD_AMD;
+      common_.postorder = 1;
+      cholmod_factor* ordered = cholmod_analyze(a_, &common_);
+      if (!ordered) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
+      perm.assign(static_cast<const int*>(ordered->Perm), static_cast<const int*>(ordered->Perm) + n);
+      cholmod_free_factor(&ordered, &common_);
     }
-    if (!ordered) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
-    supernodal_ = mode == CHOLMOD_AUTO ? ordered->is_super : mode == CHOLMOD_SUPERNODAL;
-    perm_.assign(static_cast<const int*>(ordered->Perm), static_cast<const int*>(ordered->Perm) + n);
-    cholmod_free_factor(&ordered, &common_);
-    AnalyzePermuted(rows, col_ptr);
+    perm_ = std::move(perm);
+    // CHOLMOD's choice of method needs its analysis: made on the simplicial
+    // layout, redone on the supernodal one only when that is its choice.
+    supernodal_ = mode_ == CHOLMOD_SUPERNODAL;
+    AnalyzePermuted(rows, col_ptr, mode_ == CHOLMOD_AUTO ? CHOLMOD_AUTO : -1);
+    if (mode_ == CHOLMOD_AUTO && factor_->is_super) {
+      Release(/*keep_pattern=*/true);
+      supernodal_ = true;
+      AnalyzePermuted(rows, col_ptr);
+    }
   }
 
   bool Extend(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
@@ -171,9 +173,9 @@ class Cholmod final : public SparseCholesky {
   std::vector<int> BlockOrdering() const override { return used_; }
 
  private:
-  void Release() {
+  void Release(bool keep_pattern = false) {
     if (factor_) cholmod_free_factor(&factor_, &common_);
-    if (a_) cholmod_free_sparse(&a_, &common_);
+    if (a_ && !keep_pattern) cholmod_free_sparse(&a_, &common_);
     if (permuted_) cholmod_free_sparse(&permuted_, &common_);
     for (cholmod_dense** d : {&b_, &x_, &y_, &e_})
       if (*d) cholmod_free_dense(d, &common_);
@@ -195,7 +197,10 @@ class Cholmod final : public SparseCholesky {
   // perm_, which holds CHOLMOD's postorder) is laid out here once, in the
   // triangle each method reads without copying, and each factorisation only
   // scatters the values into it; its symbolic factor needs no ordering.
-  void AnalyzePermuted(const std::vector<int>& rows, const std::vector<int>& col_ptr) {
+  // `method`: CHOLMOD_AUTO to let CHOLMOD choose (the layout stays the
+  // simplicial one), else supernodal_ says.
+  void AnalyzePermuted(const std::vector<int>& rows, const std::vector<int>& col_ptr,
+                       int method = -1) {
     const int n = n_;
     const bool upper = !supernodal_;  // the simplicial method reads triu, the supernodal tril
     std::vector<int> inverse(n);
@@ -240,7 +245,9 @@ class Cholmod final : public SparseCholesky {
     // Already in the fill-reducing order (postordered): analysed as is.
     common_.method[0].ordering = CHOLMOD_NATURAL;
     common_.postorder = 0;
-    common_.supernodal = supernodal_ ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
+    common_.supernodal = method == CHOLMOD_AUTO ? CHOLMOD_AUTO
+                         : supernodal_          ? CHOLMOD_SUPERNODAL
+                                                : CHOLMOD_SIMPLICIAL;
     factor_ = cholmod_analyze(permuted_, &common_);
     if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
     b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, &common_);
@@ -258,10 +265,6 @@ class Cholmod final : public SparseCholesky {
     if (first[nb] != n) throw std::invalid_argument("block sizes do not add up to the matrix size");
     for (int b = 0; b < nb; ++b)
       for (int i = first[b]; i < first[b + 1]; ++i) block_of[i] = b;
-    if (static_cast<int>(given_.size()) == nb) {
-      used_ = given_;
-      return Expand(used_, first, n);
-    }
     // The last scalar column of a block holds every block row it touches.
     std::vector<int> bp(nb + 1, 0), bi;
     for (int b = 0; b < nb; ++b) {
@@ -273,6 +276,10 @@ class Cholmod final : public SparseCholesky {
       }
       bp[b + 1] = static_cast<int>(bi.size());
     }
+    if (static_cast<int>(given_.size()) == nb) {
+      used_ = Postordered(given_, bp, bi);
+      return Expand(used_, first, n);
+    }
     cholmod_sparse* pattern = cholmod_allocate_sparse(nb, nb, bi.size(), 1, 1, 1, CHOLMOD_PATTERN, &common_);
     std::memcpy(pattern->p, bp.data(), sizeof(int) * (nb + 1));
     std::memcpy(pattern->i, bi.data(), sizeof(int) * bi.size());
@@ -280,8 +287,65 @@ class Cholmod final : public SparseCholesky {
     const int ok = cholmod_amd(pattern, nullptr, 0, block_perm.data(), &common_);
     cholmod_free_sparse(&pattern, &common_);
     if (!ok) return {};
-    used_ = block_perm;
-    return Expand(block_perm, first, n);
+    used_ = Postordered(block_perm, bp, bi);
+    return Expand(used_, first, n);
+  }
+
+  // The block ordering followed by a postorder of the block graph's
+  // elimination tree in it: the columns of each subtree, hence of each
+  // supernode, become contiguous, as CHOLMOD's own analysis would order
+  // them (it postorders the scalar tree, which within a block is a chain).
+  // Same fill; the symbolic factorisation then needs no ordering of its own.
+  static std::vector<int> Postordered(const std::vector<int>& order, const std::vector<int>& bp,
+                                      const std::vector<int>& bi) {
+    const int nb = static_cast<int>(order.size());
+    std::vector<int> inverse(nb);
+    for (int k = 0; k < nb; ++k) inverse[order[k]] = k;
+    // Upper triangle of the permuted block pattern, by column.
+    std::vector<int> start(nb + 1, 0);
+    for (int b = 0; b < nb; ++b)
+      for (int k = bp[b]; k < bp[b + 1]; ++k)
+        if (bi[k] != b) ++start[std::max(inverse[bi[k]], inverse[b]) + 1];
+    for (int j = 0; j < nb; ++j) start[j + 1] += start[j];
+    std::vector<int> above(start[nb]), next(start.begin(), start.end() - 1);
+    for (int b = 0; b < nb; ++b)
+      for (int k = bp[b]; k < bp[b + 1]; ++k)
+        if (bi[k] != b) {
+          const int i = inverse[bi[k]], j = inverse[b];
+          above[next[std::max(i, j)]++] = std::min(i, j);
+        }
+    // Liu's algorithm, with path compression through `ancestor`.
+    std::vector<int> parent(nb, -1), ancestor(nb, -1);
+    for (int j = 0; j < nb; ++j)
+      for (int t = start[j]; t < start[j + 1]; ++t)
+        for (int i = above[t]; i != -1 && i < j;) {
+          const int up = ancestor[i];
+          ancestor[i] = j;
+          if (up == -1) parent[i] = j;
+          i = up;
+        }
+    // Children in increasing order, then depth-first from each root.
+    std::vector<int> head(nb, -1), sibling(nb, -1);
+    for (int j = nb - 1; j >= 0; --j)
+      if (parent[j] != -1) sibling[j] = head[parent[j]], head[parent[j]] = j;
+    std::vector<int> post, stack;
+    post.reserve(nb);
+    for (int root = 0; root < nb; ++root) {
+      if (parent[root] != -1) continue;
+      stack.push_back(root);
+      while (!stack.empty()) {
+        const int j = stack.back();
+        if (head[j] != -1) {
+          const int child = head[j];
+          head[j] = sibling[child];
+          stack.push_back(child);
+        } else {
+          stack.pop_back();
+          post.push_back(order[j]);
+        }
+      }
+    }
+    return post;
   }
 
   static std::vector<int> Expand(const std::vector<int>& block_perm, const std::vector<int>& first,

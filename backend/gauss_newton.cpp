@@ -66,7 +66,7 @@ struct GaussNewtonProblem::Workspace {
   std::vector<std::pair<int, int>> gradient_terms;
   std::vector<int> diagonal;  // value index of each H(i, i)
   std::vector<double> diagonal_saved;
-  std::vector<double> b, dx, x_saved;
+  std::vector<double> b, dx, x_saved, b_saved;
   std::unique_ptr<SparseCholesky> cholesky;
   std::vector<int> variables;  // non-constant blocks, in H's order
   CholeskyKind linear_solver = CholeskyKind::kAuto;
@@ -672,7 +672,11 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   };
 
   result.setup_time_s = Seconds(t0);
-  double chi2 = Evaluate(false);
+  // Every candidate is evaluated with its Jacobians and gradient: accepted
+  // (the common case) it needs no evaluation of its own next iteration.
+  double chi2 = LinearizeGradient();
+  bool jacobians_current = true;  // J and b in the workspace are at the estimate
+  result.linearize_time_s += Seconds(t0) - result.setup_time_s;
   result.initial_chi2 = chi2;
   auto record = [&](int iteration, double step_norm, bool accepted, double solve_s) {
     IterationRecord it;
@@ -702,14 +706,14 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   bool pure_gauss_newton = true;
   double damping = options.damping, decrease_factor = 2;
   double last_decrease = 1.0;
-  bool have_factor = false, jacobians_current = false;
+  bool have_factor = false;
   for (int iter = 1; iter <= options.max_iterations; ++iter) {
     // Near the optimum H hardly changes: a step with the last factorisation
     // (a chord step) costs a linearisation and two triangular solves instead
     // of a factorisation. Kept only if it lowers chi2; else a full step.
     if (options.reuse_factorization && have_factor && last_decrease < kChordThreshold) {
       const auto tl = std::chrono::steady_clock::now();
-      Linearize(/*assemble_h=*/false);
+      if (!jacobians_current) LinearizeGradient();
       result.linearize_time_s += Seconds(tl);
       SaveEstimate();
       double step_norm = 0;
@@ -719,7 +723,10 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
       result.linear_solver_time_s += solve_s;
       if (ok) {
         ApplyStep();
-        const double new_chi2 = Evaluate(false);
+        const auto te = std::chrono::steady_clock::now();
+        const double new_chi2 = LinearizeGradient();
+        result.linearize_time_s += Seconds(te);
+        jacobians_current = true;
         if (std::isfinite(new_chi2) && new_chi2 <= chi2) {
           const double decrease = (chi2 - new_chi2) / std::max(chi2, std::numeric_limits<double>::min());
           chi2 = new_chi2;
@@ -734,6 +741,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
           continue;
         }
         RestoreEstimate();
+        jacobians_current = false;
         // Within rounding of chi2: the estimate is at the minimum already,
         // and a full step would only confirm it at the price of a factorisation.
         if (std::isfinite(new_chi2) && new_chi2 - chi2 <= 1e-12 * chi2) {
@@ -743,8 +751,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
                         "converged: the next step changes chi-squared only within rounding", true);
         }
       }
-      have_factor = false;  // fall through: a full step from the same point,
-      jacobians_current = true;  // whose Jacobians and gradient are already there
+      have_factor = false;  // fall through: a full step from the same point
     }
     const auto tl = std::chrono::steady_clock::now();
     if (jacobians_current) {
@@ -778,8 +785,10 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
       if (ok) {
         const double predicted = PredictedDecrease(lambda);
         ApplyStep();
+        // The gradient at this point is needed again if the step is refused.
+        w.b_saved.assign(w.b.begin(), w.b.end());
         const auto te = std::chrono::steady_clock::now();
-        new_chi2 = Evaluate(false);
+        new_chi2 = LinearizeGradient();
         result.linearize_time_s += Seconds(te);
         rho = predicted > 0 ? (chi2 - new_chi2) / predicted : -1;
         if (std::isfinite(new_chi2) && new_chi2 <= chi2 && rho > kMinRelativeDecrease) {
@@ -787,6 +796,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
           break;
         }
         RestoreEstimate();
+        w.b.swap(w.b_saved);
         // A change within rounding of chi2 means the estimate is already at
         // the minimum: damping would only repeat the same factorisation.
         if (std::isfinite(new_chi2) && std::abs(new_chi2 - chi2) <= 1e-12 * chi2) {
@@ -807,6 +817,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
       if (damping > kMaxDamping) break;
     }
     result.iterations = iter;
+    jacobians_current = accepted;  // else the workspace holds the refused candidate's
     if (accepted) {
       // Ceres's rule: a step that did what the model said widens the trust
       // region (up to 3 times), a poor one narrows it.

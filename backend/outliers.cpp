@@ -302,17 +302,7 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
         std::fprintf(stderr, "verification skipped: %s\n", e.what());
       break;
     }
-    // The a-posteriori variance factor: chi2 per degree of freedom of the
-    // kept graph. Files' information matrices are often pessimistic (intel:
-    // 0.006); the statistic of a good loop closure scales with the factor,
-    // the bend a wrong one forces does not.
-    double scale = 1;
-    if (options.variance_factor) {
-      const double dof = static_cast<double>(inliers.edges().size()) * graph.TangentSize() -
-                         static_cast<double>(inliers.vertices().size() - 1) * graph.TangentSize();
-      if (dof > 0) scale = std::min(1.0, Chi2(inliers) / dof);
-    }
-    const double bound = c2 * scale;
+    const double bound = c2;
     // Of those over the bound, the one whose deletion releases most in the
     // rest of the graph (the fall beyond its own residual): good loop
     // closures near a bend have large residuals too, the wrong one holds it.
@@ -331,9 +321,9 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
     if (options.verbose)
       std::fprintf(stderr,
                    "verify: loop closure %lld-%lld fits (chi2 %.3g) but deleting it lowers chi2 "
-                   "by %.4g > %.4g (threshold x variance factor %.3g): rejected\n",
+                   "by %.4g > %.4g: rejected\n",
                    static_cast<long long>(e.from), static_cast<long long>(e.to),
-                   EdgeChi2(inliers, e), gain[worst], bound, scale);
+                   EdgeChi2(inliers, e), gain[worst], bound);
     rejected[origin[kept[worst]]] = true;
     verified_out[origin[kept[worst]]] = true;
     ++out.verified;

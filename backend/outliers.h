@@ -72,9 +72,6 @@ struct OutlierRejectionOptions {
   // would lower chi2 by more than the threshold (see SolveRejectingOutliers).
   bool verify = true;
   int max_verify_rounds = 100;
-  // Verification scales the threshold by the a-posteriori variance factor
-  // (chi2 per degree of freedom of the kept graph, at most 1).
-  bool variance_factor = false;
   bool verbose = false;
 };
 

@@ -49,18 +49,22 @@ def main(work):
         for kind in ("plain", "gnc"):
             j = base + f"_{kind}.json"
             times[kind] = json.load(open(j))["time_s"] if os.path.exists(j) else float("nan")
+        j = base + "_plain.json"
+        plain_end = json.load(open(j))["termination"] if os.path.exists(j) else "failed"
         rows.append((name, float(frac), len(wrong), good,
                      rms(base + "_plain.g2o", clean), rms(base + "_gnc.g2o", clean),
                      100.0 * caught / max(1, len(wrong)),
                      100.0 * (good - good_rejected) / max(1, good),
-                     times["gnc"], float(open(base + "_gnc.wall").read())))
+                     times["gnc"], float(open(base + "_gnc.wall").read()), plain_end,
+                     float(open(base + "_gnc.cpu").read())))
     print("| dataset | wrong / good loop closures | RMS plain LS (m) | RMS --reject-outliers (m) "
-          "| wrong rejected | good kept | GNC wall time (s) | pass |")
+          "| wrong rejected | good kept | --reject-outliers wall / CPU time (s) | pass |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
-    for name, frac, nw, ng, rp, rg, caught, kept, _, wall in rows:
+    for name, frac, nw, ng, rp, rg, caught, kept, _, wall, plain_end, cpu in rows:
         ok = rg <= 0.05 and caught >= 95 and kept >= 95
-        print(f"| {name} | {int(round(frac * 100))}%: {nw} / {ng} | {rp:.3g} | {rg:.3g} "
-              f"| {caught:.1f}% | {kept:.1f}% | {wall:.1f} | {'yes' if ok else 'NO'} |")
+        note = "" if plain_end == "convergence" else f" ({plain_end})"
+        print(f"| {name} | {int(round(frac * 100))}%: {nw} / {ng} | {rp:.3g}{note} | {rg:.3g} "
+              f"| {caught:.1f}% | {kept:.1f}% | {wall:.1f} / {cpu:.1f} | {'yes' if ok else 'NO'} |")
 
 
 if __name__ == "__main__":

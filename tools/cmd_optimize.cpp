@@ -120,6 +120,19 @@ int RunOptimize(int argc, char** argv) {
               "--outlier-confidence quantile for 3 or 6 dof)");
   args.Option("outlier-confidence", &rejection.confidence, "P",
               "with --reject-outliers: quantile of chi2 taken as the threshold");
+  args.Option("gnc-iterations", &rejection.inner_iterations, "N",
+              "with --reject-outliers: iterations of each weighted solve inside GNC (0: "
+              "--max-iterations); the solves without the rejected ones run in full");
+  args.Option("outlier-window", &rejection.consistency_window, "N",
+              "with --reject-outliers: loop closures whose ends lie within N ids of another's "
+              "that agrees with them go through GNC first, alone (0: no such stage)");
+  args.Option("outlier-restart", &rejection.restart_chi2_factor, "F",
+              "with --reject-outliers: after that stage, GNC over all loop closures starts "
+              "with those beyond F times the threshold at weight 0");
+  bool no_verify = false;
+  args.Flag("no-outlier-verification", &no_verify,
+            "with --reject-outliers: skip the check after GNC (kept loop closures whose "
+            "deletion would lower chi2 by more than the threshold are rejected too)");
   args.Option("init", &init, "METHOD",
               "initial estimate: file (the file's vertices), odometry (chained odometry), "
               "spanning-tree (chained along the most certain edges) or chordal (chordal "
@@ -195,6 +208,13 @@ int RunOptimize(int argc, char** argv) {
       PrintError("--outlier-confidence must lie in (0, 1) and --outlier-threshold be >= 0");
       return 2;
     }
+    if (rejection.inner_iterations < 0 || rejection.consistency_window < 0 ||
+        !(rejection.restart_chi2_factor > 1)) {
+      PrintError("--gnc-iterations and --outlier-window must not be negative, --outlier-restart "
+                 "must exceed 1");
+      return 2;
+    }
+    rejection.verify = !no_verify;
     // The inner solves are many: one progress line per GNC round instead.
     rejection.verbose = !quiet;
     CeresOptions inner = o;
@@ -202,16 +222,21 @@ int RunOptimize(int argc, char** argv) {
     inner.verbose = inner_gn.verbose = false;
     const OutlierRejectionResult r = SolveRejectingOutliers(
         graph,
-        [&](PoseGraph& g) {
-          return solver == "gn" ? SolveGaussNewton(g, inner_gn) : SolveWithCeres(g, inner);
+        [&](PoseGraph& g, int max_iterations) {
+          CeresOptions c = inner;
+          GaussNewtonOptions n = inner_gn;
+          if (max_iterations > 0) c.max_iterations = n.max_iterations = max_iterations;
+          return solver == "gn" ? SolveGaussNewton(g, n) : SolveWithCeres(g, c);
         },
         rejection);
     result = r.solve;
     rejected = r.rejected;
     if (!quiet)
-      std::fprintf(stderr, "%s: rejected %zu of %zu loop closures (chi2 threshold %.4g, %d solves)\n",
+      std::fprintf(stderr,
+                   "%s: rejected %zu of %zu loop closures (%d of them by verification; chi2 "
+                   "threshold %.4g, %d solves)\n",
                    in.c_str(), rejected.size(), graph.CountEdges(EdgeKind::kLoopClosure),
-                   r.threshold_chi2, r.rounds);
+                   r.verified, r.threshold_chi2, r.rounds);
   } else {
     result = solver == "gn" ? SolveGaussNewton(graph, gn) : SolveWithCeres(graph, o);
   }

@@ -1,0 +1,170 @@
+#include "backend/leverage.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SparseCholesky>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+
+#include "backend/graph_factors.h"
+#include "factors/pose_manifold.h"
+
+namespace cairn {
+namespace {
+
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// The whitened residual of an edge and its Jacobians in the tangent spaces
+// of its vertices (one d x d block per vertex).
+struct Linearized {
+  Eigen::VectorXd r;
+  std::vector<Eigen::MatrixXd> jac;
+};
+
+Linearized Linearize(const PoseGraph& graph, const Edge& edge, const ceres::Manifold& manifold) {
+  const std::unique_ptr<ceres::CostFunction> cost(MakeCostFunction(graph, edge));
+  const int d = graph.TangentSize(), p = graph.ParameterSize();
+  std::vector<const double*> params = {graph.vertex(edge.from).x.data()};
+  if (!edge.IsPrior()) params.push_back(graph.vertex(edge.to).x.data());
+  std::vector<RowMajor> ambient(params.size(), RowMajor(d, p));
+  std::vector<double*> jac_ptrs;
+  for (RowMajor& a : ambient) jac_ptrs.push_back(a.data());
+  Linearized out;
+  out.r.resize(d);
+  if (!cost->Evaluate(params.data(), out.r.data(), jac_ptrs.data()))
+    throw std::runtime_error("an edge's residual could not be evaluated");
+  for (size_t k = 0; k < params.size(); ++k) {
+    RowMajor plus(p, d);
+    manifold.PlusJacobian(params[k], plus.data());
+    out.jac.push_back(ambient[k] * plus);
+  }
+  return out;
+}
+
+// The entries of A^{-1} on the pattern of A's Cholesky factor L (lower,
+// column-major, diagonal first in each column, rows ascending), by
+// Takahashi's recurrence from the last column back:
+//   Z_ij = -(1/L_jj) sum_{k>j} Z_ik L_kj   (i > j)
+//   Z_jj = (1/L_jj - sum_{k>j} Z_kj L_kj) / L_jj
+// Every Z_ik it needs lies on the pattern (the factor's pattern is chordal).
+class SelectedInverse {
+ public:
+  explicit SelectedInverse(const Eigen::SparseMatrix<double>& L)
+      : n_(static_cast<int>(L.cols())),
+        col_(L.outerIndexPtr(), L.outerIndexPtr() + L.cols() + 1),
+        row_(L.innerIndexPtr(), L.innerIndexPtr() + L.nonZeros()),
+        z_(L.nonZeros(), 0.0) {
+    const double* l = L.valuePtr();
+    for (int j = 0; j < n_; ++j)
+      if (col_[j] == col_[j + 1] || row_[col_[j]] != j ||
+          !std::is_sorted(row_.begin() + col_[j], row_.begin() + col_[j + 1]))
+        throw std::runtime_error("unexpected layout of the Cholesky factor");
+    for (int j = n_ - 1; j >= 0; --j) {
+      const int p0 = col_[j], p1 = col_[j + 1];
+      const double ljj = l[p0];
+      for (int a = p0 + 1; a < p1; ++a) {
+        double s = 0;
+        for (int b = p0 + 1; b < p1; ++b) s += At(row_[a], row_[b]) * l[b];
+        z_[a] = -s / ljj;
+      }
+      double s = 0;
+      for (int a = p0 + 1; a < p1; ++a) s += z_[a] * l[a];
+      z_[p0] = (1 / ljj - s) / ljj;
+    }
+  }
+
+  // Z_ik for a pair on the pattern (either order).
+  double At(int i, int k) const {
+    if (i < k) std::swap(i, k);
+    const auto begin = row_.begin() + col_[k], end = row_.begin() + col_[k + 1];
+    const auto it = std::lower_bound(begin, end, i);
+    if (it == end || *it != i) throw std::logic_error("selected inverse: entry off the pattern");
+    return z_[it - row_.begin()];
+  }
+
+ private:
+  int n_;
+  std::vector<int> col_, row_;
+  std::vector<double> z_;
+};
+
+}  // namespace
+
+std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vector<size_t>& edges) {
+  const int d = graph.TangentSize();
+  const std::unique_ptr<ceres::Manifold> manifold =
+      graph.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
+  // Variables: the touched vertices not held for the gauge, d columns each.
+  const std::vector<bool> held = HeldConstant(graph), touched = TouchedVertices(graph);
+  const auto& vertices = graph.vertices();
+  std::vector<int> offset(vertices.size(), -1);
+  int n = 0;
+  for (size_t v = 0; v < vertices.size(); ++v)
+    if (touched[v] && !held[v]) {
+      offset[v] = n;
+      n += d;
+    }
+  auto vertex_offset = [&](int64_t id) { return offset[graph.VertexIndex(id)]; };
+
+  // H = sum J^T J, lower triangle.
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(graph.edges().size() * 4 * d * d);
+  for (const Edge& e : graph.edges()) {
+    const Linearized lin = Linearize(graph, e, *manifold);
+    const int o[2] = {vertex_offset(e.from), e.IsPrior() ? -1 : vertex_offset(e.to)};
+    for (size_t a = 0; a < lin.jac.size(); ++a) {
+      if (o[a] < 0) continue;
+      for (size_t b = 0; b < lin.jac.size(); ++b) {
+        if (o[b] < 0 || o[b] > o[a]) continue;
+        const Eigen::MatrixXd h = lin.jac[a].transpose() * lin.jac[b];
+        for (int i = 0; i < d; ++i)
+          for (int j = 0; j < d; ++j)
+            if (o[a] + i >= o[b] + j) triplets.emplace_back(o[a] + i, o[b] + j, h(i, j));
+      }
+    }
+  }
+  std::vector<double> out(edges.size(), std::numeric_limits<double>::quiet_NaN());
+  if (n == 0) return out;
+  Eigen::SparseMatrix<double> H(n, n);
+  H.setFromTriplets(triplets.begin(), triplets.end());
+  triplets = {};
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt(H);
+  if (llt.info() != Eigen::Success)
+    throw std::runtime_error("the information matrix is not positive definite");
+  const Eigen::SparseMatrix<double> L = llt.matrixL().nestedExpression();
+  const SelectedInverse z(L);
+  // The factor is of P H P^T: Sigma(p, q) = Z(perm[p], perm[q]).
+  const Eigen::VectorXi perm = llt.permutationP().indices();
+
+  for (size_t k = 0; k < edges.size(); ++k) {
+    const Edge& e = graph.edges()[edges[k]];
+    if (e.IsPrior()) throw std::invalid_argument("DeletedResidualChi2: a prior is no between-edge");
+    const Linearized lin = Linearize(graph, e, *manifold);
+    // J restricted to the variable poses, and those poses' joint covariance.
+    std::vector<int> cols;
+    Eigen::MatrixXd J(d, 2 * d);
+    int m = 0;
+    for (int a = 0; a < 2; ++a) {
+      const int o = vertex_offset(a == 0 ? e.from : e.to);
+      if (o < 0) continue;
+      J.middleCols(m, d) = lin.jac[a];
+      for (int i = 0; i < d; ++i) cols.push_back(o + i);
+      m += d;
+    }
+    Eigen::MatrixXd S(m, m);
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j <= i; ++j) S(i, j) = S(j, i) = z.At(perm[cols[i]], perm[cols[j]]);
+    const Eigen::MatrixXd M =
+        Eigen::MatrixXd::Identity(d, d) - J.leftCols(m) * S * J.leftCols(m).transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(M);
+    // 1 - leverage: near 0, the edge alone decides a direction.
+    if (eig.info() != Eigen::Success || eig.eigenvalues().minCoeff() < 1e-9) continue;
+    const Eigen::VectorXd u = eig.eigenvectors().transpose() * lin.r;
+    out[k] = (u.array().square() / eig.eigenvalues().array()).sum();
+  }
+  return out;
+}
+
+}  // namespace cairn

@@ -48,7 +48,7 @@ CalibrationData Synthetic(const Eigen::Matrix3d& x, int n, double noise, unsigne
 }
 
 std::string TempPath(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() /
+  const auto dir = std::filesystem::path(cairn::testing::TempDir()) /
                    ("cairn_calib_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   return (dir / name).string();

@@ -333,7 +333,7 @@ std::string Tool() { return CAIRN_TOOL; }
 
 TEST(OptimizeTool, WritesGraphReportAndPlot) {
   Simulation sim = Simulated(2, 200);
-  const std::string dir = ::testing::TempDir();
+  const std::string dir = cairn::testing::TempDir();
   const std::string in = dir + "/cairn_opt_in.g2o", out = dir + "/cairn_opt_out.g2o";
   const std::string report = dir + "/cairn_opt.json", plot = dir + "/cairn_opt.svg";
   WriteG2o(sim.noisy, in);
@@ -363,7 +363,7 @@ TEST(OptimizeTool, WritesGraphReportAndPlot) {
 
 TEST(OptimizeTool, GaussNewtonReachesWhatCeresReaches) {
   Simulation sim = Simulated(3, 200);
-  const std::string dir = ::testing::TempDir();
+  const std::string dir = cairn::testing::TempDir();
   const std::string in = dir + "/cairn_gn_in.g2o";
   WriteG2o(sim.noisy, in);
   double final_chi2[2];
@@ -387,7 +387,7 @@ TEST(OptimizeTool, GaussNewtonReachesWhatCeresReaches) {
 // A TORO square whose loop closure disagrees with the odometry by 0.4 m:
 // read as TORO, written as g2o, chi2 lowered, vertex 0 held.
 TEST(OptimizeTool, ReadsToroWritesG2o) {
-  const std::string in = ::testing::TempDir() + "/cairn_toro.graph";
+  const std::string in = cairn::testing::TempDir() + "/cairn_toro.graph";
   const std::string out = in + ".g2o";
   std::ofstream(in) << "VERTEX2 0 0 0 0\nVERTEX2 1 1 0 1.5708\nVERTEX2 2 1 1 3.1416\n"
                        "VERTEX2 3 0 1 -1.5708\n"
@@ -410,7 +410,7 @@ TEST(OptimizeTool, ReadsToroWritesG2o) {
 
 TEST(OptimizeTool, QuietPrintsNothing) {
   Simulation sim = Simulated(3, 60);
-  const std::string in = ::testing::TempDir() + "/cairn_q_in.g2o";
+  const std::string in = cairn::testing::TempDir() + "/cairn_q_in.g2o";
   WriteG2o(sim.noisy, in);
   int status = -1;
   const std::string log = testing::RunCommand(
@@ -420,7 +420,7 @@ TEST(OptimizeTool, QuietPrintsNothing) {
 }
 
 TEST(OptimizeTool, BadInputNamesFileAndLine) {
-  const std::string path = ::testing::TempDir() + "/cairn_opt_bad.g2o";
+  const std::string path = cairn::testing::TempDir() + "/cairn_opt_bad.g2o";
   std::ofstream(path) << "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0\n";
   int status = 0;
   const std::string out = testing::RunCommand(

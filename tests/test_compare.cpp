@@ -36,7 +36,7 @@ TEST_P(CompareOnDataset, BothPathsAgree) {
   const Case& c = GetParam();
   const std::string path = cairn::testing::DatasetPath(c.file);
   CAIRN_REQUIRE_DATASET(path);
-  const std::string json = ::testing::TempDir() + "/cairn_compare.json";
+  const std::string json = cairn::testing::TempDir() + "/cairn_compare.json";
   int status = -1;
   const std::string out = cairn::testing::RunCommand(
       std::string(CAIRN_TOOL) + " compare --quiet " + c.extra + " --json '" + json + "' '" +
@@ -64,7 +64,7 @@ INSTANTIATE_TEST_SUITE_P(SharedFiles, CompareOnDataset, ::testing::ValuesIn(kCas
                          });
 
 TEST(CompareTool, ExitsNonZeroWhenTolerancesAreImpossible) {
-  const std::string path = ::testing::TempDir() + "/cairn_cmp_sim.g2o";
+  const std::string path = cairn::testing::TempDir() + "/cairn_cmp_sim.g2o";
   int status = -1;
   cairn::testing::RunCommand(std::string(CAIRN_TOOL) + " simulate --poses 300 -o '" + path +
                                  "' 2>/dev/null",

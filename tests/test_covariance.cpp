@@ -115,7 +115,7 @@ TEST(Covariance, RefusesUnknownVertices) {
 }
 
 TEST(Covariance, OptimizeCommandPrintsAndReports) {
-  const auto dir = std::filesystem::temp_directory_path() / "cairn_test_covariance";
+  const auto dir = std::filesystem::path(cairn::testing::TempDir()) / "cairn_test_covariance";
   std::filesystem::create_directories(dir);
   SimulationOptions o;
   o.poses = 100;

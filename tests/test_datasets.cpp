@@ -57,7 +57,7 @@ INSTANTIATE_TEST_SUITE_P(SharedFiles, InfoOnDataset, ::testing::ValuesIn(kFiles)
                          });
 
 TEST(InfoTool, BadFileExitsNonZeroWithFileAndLine) {
-  const std::string path = ::testing::TempDir() + "/cairn_bad.g2o";
+  const std::string path = cairn::testing::TempDir() + "/cairn_bad.g2o";
   FILE* f = std::fopen(path.c_str(), "w");
   std::fputs("VERTEX_SE2 0 0 0 0\nEDGE_SE2 0 1 oops\n", f);
   std::fclose(f);

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "backend/graph_io.h"
+#include "test_util.h"
 #include "frontend/carmen_log.h"
 #include "frontend/image_io.h"
 #include "frontend/mapper.h"
@@ -162,7 +163,7 @@ TEST(ImageIo, PngHasSignatureChunksAndCrc) {
 }
 
 std::string WriteTemp(const std::string& name, const std::string& text) {
-  const auto path = std::filesystem::temp_directory_path() / name;
+  const auto path = std::filesystem::path(cairn::testing::TempDir()) / name;
   std::ofstream(path) << text;
   return path.string();
 }
@@ -231,7 +232,7 @@ std::string ReadAll(const std::string& path) {
 }
 
 TEST(MapTool, MalformedLogFailsWithFileLineAndWritesNothing) {
-  const auto dir = std::filesystem::temp_directory_path() / "cairn_map_bad";
+  const auto dir = std::filesystem::path(cairn::testing::TempDir()) / "cairn_map_bad";
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string log = (dir / "bad.log").string();

@@ -29,7 +29,7 @@ double JsonNumber(const std::string& json, const std::string& key) {
 TEST(IntelEndToEnd, MapsUnderFifteenCentimetresAte) {
   const std::string log = cairn::testing::DatasetPath("carmen/intel-corrected.log.gz");
   CAIRN_REQUIRE_DATASET(log);
-  const auto dir = std::filesystem::temp_directory_path() / "cairn_intel_e2e";
+  const auto dir = std::filesystem::path(cairn::testing::TempDir()) / "cairn_intel_e2e";
   std::filesystem::create_directories(dir);
   const std::string prefix = (dir / "intel").string();
   const std::string map_cmd = std::string(CAIRN_TOOL) + " map " + log + " -o " + prefix +

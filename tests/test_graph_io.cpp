@@ -9,6 +9,7 @@
 
 #include "backend/chi2.h"
 #include "backend/graph_io.h"
+#include "test_util.h"
 
 namespace cairn {
 namespace {
@@ -226,11 +227,11 @@ TEST(ReadG2oErrors, EveryKindOfBadInput) {
 
 TEST(ReadG2oErrors, MissingFileAndDirectory) {
   EXPECT_THROW(ReadGraph("/nonexistent/graph.g2o"), std::runtime_error);
-  EXPECT_THROW(ReadGraph(std::filesystem::temp_directory_path().string()), std::runtime_error);
+  EXPECT_THROW(ReadGraph(std::filesystem::path(cairn::testing::TempDir()).string()), std::runtime_error);
 }
 
 TEST(WriteG2o, AtomicWriteLeavesNoHalfFile) {
-  const auto dir = std::filesystem::temp_directory_path() / "cairn_atomic_test";
+  const auto dir = std::filesystem::path(cairn::testing::TempDir()) / "cairn_atomic_test";
   std::filesystem::create_directories(dir);
   const std::string path = (dir / "out.g2o").string();
   std::filesystem::remove(path);

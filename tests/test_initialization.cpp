@@ -107,7 +107,7 @@ namespace cairn {
 namespace {
 
 TEST(OptimizeTool, InitChordalIsReported) {
-  const std::string dir = ::testing::TempDir();
+  const std::string dir = cairn::testing::TempDir();
   int status = -1;
   cairn::testing::RunCommand(std::string(CAIRN_TOOL) + " simulate --poses 200 -o '" + dir +
                                  "/init_sim.g2o' 2>/dev/null",

@@ -448,7 +448,7 @@ TEST(Gnc, RejectsTheWrongLoopClosuresWithEitherSolver) {
 
 TEST(Cli, CorruptThenOptimizeRejectingOutliers) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::temp_directory_path() / ("cairn_robust_" + std::to_string(::getpid()));
+  const fs::path dir = fs::path(cairn::testing::TempDir()) / ("cairn_robust_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   SimulationOptions so;
   so.poses = 300;

@@ -4,16 +4,41 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <regex>
 #include <string>
 
 namespace cairn::testing {
+
+// A directory of this test process's own under the system's temporary one:
+// CTest runs test cases as parallel processes (and two builds' suites may
+// run at once), so fixed file names there would be shared between them.
+inline const std::string& TempDirPath() {
+  // Never destroyed: the exit handler below still needs it.
+  static const std::string* dir =
+      new std::string(::testing::TempDir() + "cairn_test_" + std::to_string(::getpid()));
+  return *dir;
+}
+inline std::string TempDir() {
+  static const bool made = [] {
+    ::mkdir(TempDirPath().c_str(), 0700);
+    std::atexit([] {
+      std::error_code ignored;
+      std::filesystem::remove_all(TempDirPath(), ignored);
+    });
+    return true;
+  }();
+  (void)made;
+  return TempDirPath();
+}
 
 inline std::string DatasetPath(const std::string& relative) {
   return std::string(CAIRN_DATASETS) + "/" + relative;

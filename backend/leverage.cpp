@@ -167,4 +167,71 @@ std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vecto
   return out;
 }
 
+std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::vector<Edge>& candidates) {
+  const int d = graph.TangentSize();
+  const std::unique_ptr<ceres::Manifold> manifold =
+      graph.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
+  const std::vector<bool> held = HeldConstant(graph), touched = TouchedVertices(graph);
+  const auto& vertices = graph.vertices();
+  std::vector<int> offset(vertices.size(), -1);
+  int n = 0;
+  for (size_t v = 0; v < vertices.size(); ++v)
+    if (touched[v] && !held[v]) {
+      offset[v] = n;
+      n += d;
+    }
+  auto vertex_offset = [&](int64_t id) { return offset[graph.VertexIndex(id)]; };
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(graph.edges().size() * 4 * d * d);
+  for (const Edge& e : graph.edges()) {
+    const Linearized lin = Linearize(graph, e, *manifold);
+    const int o[2] = {vertex_offset(e.from), e.IsPrior() ? -1 : vertex_offset(e.to)};
+    for (size_t a = 0; a < lin.jac.size(); ++a) {
+      if (o[a] < 0) continue;
+      for (size_t b = 0; b < lin.jac.size(); ++b) {
+        if (o[b] < 0 || o[b] > o[a]) continue;
+        const Eigen::MatrixXd h = lin.jac[a].transpose() * lin.jac[b];
+        for (int i = 0; i < d; ++i)
+          for (int j = 0; j < d; ++j)
+            if (o[a] + i >= o[b] + j) triplets.emplace_back(o[a] + i, o[b] + j, h(i, j));
+      }
+    }
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<InnovationStat> out(candidates.size(), InnovationStat{nan, nan});
+  if (n == 0) return out;
+  Eigen::SparseMatrix<double> H(n, n);
+  H.setFromTriplets(triplets.begin(), triplets.end());
+  triplets = {};
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt(H);
+  if (llt.info() != Eigen::Success)
+    throw std::runtime_error("the information matrix is not positive definite");
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    const Edge& e = candidates[k];
+    const Linearized lin = Linearize(graph, e, *manifold);
+    std::vector<int> cols;
+    Eigen::MatrixXd J(d, 2 * d);
+    int m = 0;
+    for (int a = 0; a < 2; ++a) {
+      const int o = vertex_offset(a == 0 ? e.from : e.to);
+      if (o < 0) continue;
+      J.middleCols(m, d) = lin.jac[a];
+      for (int i = 0; i < d; ++i) cols.push_back(o + i);
+      m += d;
+    }
+    Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n, m);
+    for (int i = 0; i < m; ++i) E(cols[i], i) = 1;
+    const Eigen::MatrixXd X = llt.solve(E);
+    Eigen::MatrixXd S(m, m);
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j < m; ++j) S(i, j) = X(cols[i], j);
+    S = (S + S.transpose()).eval() / 2;
+    const Eigen::MatrixXd P = J.leftCols(m) * S * J.leftCols(m).transpose();
+    const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(d, d) + P;
+    out[k].chi2 = lin.r.dot(M.ldlt().solve(lin.r));
+    out[k].spread = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(P).eigenvalues().maxCoeff();
+  }
+  return out;
+}
+
 }  // namespace cairn

@@ -29,4 +29,16 @@ namespace cairn {
 // about one factorisation, not one solve per edge.
 std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vector<size_t>& edges);
 
+// For loop closures not in the graph (between-edges of its vertices): the
+// innovation statistic r^T (I + J Sigma J^T)^{-1} r, how much the optimal
+// chi2 would rise (linear problem) if the edge were added, with Sigma the
+// exact joint covariance of its two poses (H X = E solved for their
+// columns), and the largest eigenvalue of J Sigma J^T (`spread`: how loosely
+// the graph holds the pair relative to the edge's own covariance).
+struct InnovationStat {
+  double chi2;
+  double spread;
+};
+std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::vector<Edge>& candidates);
+
 }  // namespace cairn

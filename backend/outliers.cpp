@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "backend/chi2.h"
+#include "backend/graph_factors.h"
 #include "backend/leverage.h"
 
 namespace cairn {
@@ -292,60 +293,125 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
   // and the truncated cost itself is lower without it (it then costs c^2).
   // The worst such loop closure goes, the rest is re-solved and checked again.
   std::vector<bool> verified_out(graph.edges().size(), false);
-  for (int round = 0; options.verify && round < options.max_verify_rounds; ++round) {
-    if (!out.solve.usable) break;
-    std::vector<double> gain;
-    try {
-      gain = DeletedResidualChi2(inliers, kept);
-    } catch (const std::runtime_error& e) {
-      if (options.verbose)
-        std::fprintf(stderr, "verification skipped: %s\n", e.what());
-      break;
-    }
-    const double bound = c2;
-    // Of those over the bound, the one whose deletion releases most in the
-    // rest of the graph (the fall beyond its own residual): good loop
-    // closures near a bend have large residuals too, the wrong one holds it.
-    size_t worst = kept.size();
-    double worst_release = 0;
-    for (size_t i = 0; i < kept.size(); ++i) {
-      if (!(gain[i] > bound)) continue;
-      const double release = gain[i] - EdgeChi2(inliers, inliers.edges()[kept[i]]);
-      if (worst == kept.size() || release > worst_release) {
-        worst = i;
-        worst_release = release;
+  auto verify = [&] {
+    for (int round = 0; options.verify && round < options.max_verify_rounds; ++round) {
+      if (!out.solve.usable) break;
+      std::vector<double> gain;
+      try {
+        gain = DeletedResidualChi2(inliers, kept);
+      } catch (const std::runtime_error& e) {
+        if (options.verbose)
+          std::fprintf(stderr, "verification skipped: %s\n", e.what());
+        break;
       }
-    }
-    if (worst == kept.size()) break;
-    const Edge& e = inliers.edges()[kept[worst]];
-    if (options.verbose)
-      std::fprintf(stderr,
-                   "verify: loop closure %lld-%lld fits (chi2 %.3g) but deleting it lowers chi2 "
-                   "by %.4g > %.4g: rejected\n",
-                   static_cast<long long>(e.from), static_cast<long long>(e.to),
-                   EdgeChi2(inliers, e), gain[worst], bound);
-    rejected[origin[kept[worst]]] = true;
-    verified_out[origin[kept[worst]]] = true;
-    ++out.verified;
-    for (Vertex& v : work.vertices()) v.x = inliers.vertex(v.id).x;
-    inliers = inliers_graph();
-    out.solve = solve(inliers, 0);
-    ++out.rounds;
-    // Released from the bend, loop closures GNC rejected may fit again.
-    size_t readmitted = 0;
-    for (size_t k = 0; k < graph.edges().size(); ++k)
-      if (rejected[k] && !verified_out[k] && EdgeChi2(inliers, graph.edges()[k]) <= c2) {
-        rejected[k] = false;
-        ++readmitted;
+      const double bound = c2;
+      // Of those over the bound, the one whose deletion releases most in the
+      // rest of the graph (the fall beyond its own residual): good loop
+      // closures near a bend have large residuals too, the wrong one holds it.
+      size_t worst = kept.size();
+      double worst_release = 0;
+      for (size_t i = 0; i < kept.size(); ++i) {
+        if (!(gain[i] > bound)) continue;
+        const double release = gain[i] - EdgeChi2(inliers, inliers.edges()[kept[i]]);
+        if (worst == kept.size() || release > worst_release) {
+          worst = i;
+          worst_release = release;
+        }
       }
-    if (readmitted > 0) {
+      if (worst == kept.size()) break;
+      const Edge& e = inliers.edges()[kept[worst]];
       if (options.verbose)
-        std::fprintf(stderr, "verify: %zu rejected loop closures fit again: kept\n", readmitted);
+        std::fprintf(stderr,
+                     "verify: loop closure %lld-%lld fits (chi2 %.3g) but deleting it lowers chi2 "
+                     "by %.4g > %.4g: rejected\n",
+                     static_cast<long long>(e.from), static_cast<long long>(e.to),
+                     EdgeChi2(inliers, e), gain[worst], bound);
+      rejected[origin[kept[worst]]] = true;
+      verified_out[origin[kept[worst]]] = true;
+      ++out.verified;
       for (Vertex& v : work.vertices()) v.x = inliers.vertex(v.id).x;
       inliers = inliers_graph();
       out.solve = solve(inliers, 0);
       ++out.rounds;
+      // Released from the bend, loop closures GNC rejected may fit again.
+      size_t readmitted = 0;
+      for (size_t k = 0; k < graph.edges().size(); ++k)
+        if (rejected[k] && !verified_out[k] && EdgeChi2(inliers, graph.edges()[k]) <= c2) {
+          rejected[k] = false;
+          ++readmitted;
+        }
+      if (readmitted > 0) {
+        if (options.verbose)
+          std::fprintf(stderr, "verify: %zu rejected loop closures fit again: kept\n", readmitted);
+        for (Vertex& v : work.vertices()) v.x = inliers.vertex(v.id).x;
+        inliers = inliers_graph();
+        out.solve = solve(inliers, 0);
+        ++out.rounds;
+      }
     }
+  };
+  verify();
+
+  // Re-admission. A good loop closure that no neighbour confirms and that
+  // the estimate of the confirmed ones left beyond GNC's reach stays out
+  // above; at the final estimate, the innovation statistic
+  // r^T (I + J Sigma J^T)^{-1} r (the rise of the optimal chi2 if it were
+  // added, Sigma the exact joint covariance of its poses) tells whether the
+  // graph could take it. Those within c^2 come back, the rest is re-solved
+  // and verified again.
+  for (int pass = 0; options.readmit && pass < options.max_passes; ++pass) {
+    if (!out.solve.usable) break;
+    std::vector<Edge> cand;
+    std::vector<size_t> cand_k;
+    for (size_t k = 0; k < graph.edges().size(); ++k) {
+      if (!rejected[k] || verified_out[k]) continue;
+      const double r2k = EdgeChi2(inliers, graph.edges()[k]);
+      if (!(r2k <= options.readmit_reach * c2)) continue;
+      cand.push_back(graph.edges()[k]);
+      cand_k.push_back(k);
+    }
+    if (cand.empty()) break;
+    std::vector<InnovationStat> stat;
+    try {
+      stat = InnovationChi2(inliers, cand);
+    } catch (const std::runtime_error& e) {
+      if (options.verbose) std::fprintf(stderr, "re-admission skipped: %s\n", e.what());
+      break;
+    }
+    // The noise the kept graph shows, chi2 per degree of freedom (the
+    // a-posteriori variance factor): when the information matrices are
+    // looser than the residuals (intel's are, by two orders of magnitude),
+    // a loop closure to a loosely held part of the graph can be bent into
+    // place within c^2 whether it is right or not. The test is scaled down by
+    // that factor, never up.
+    const std::vector<bool> held = HeldConstant(inliers);
+    const double variables =
+        graph.TangentSize() * static_cast<double>(
+            inliers.vertices().size() - std::count(held.begin(), held.end(), true));
+    const double dof = graph.TangentSize() * static_cast<double>(inliers.edges().size()) - variables;
+    const double factor = dof > 0 ? std::min(1.0, Chi2(inliers) / dof) : 1.0;
+    const double bound = c2 * factor;
+    size_t back = 0;
+    for (size_t i = 0; i < cand.size(); ++i) {
+      const bool ok = stat[i].chi2 <= bound;
+      if (options.verbose)
+        std::fprintf(stderr, "readmit? %lld-%lld chi2 %.4g innovation %.4g spread %.4g%s\n",
+                     static_cast<long long>(cand[i].from), static_cast<long long>(cand[i].to),
+                     EdgeChi2(inliers, cand[i]), stat[i].chi2, stat[i].spread, ok ? " yes" : "");
+      if (ok) {
+        rejected[cand_k[i]] = false;
+        ++back;
+      }
+    }
+    if (options.verbose)
+      std::fprintf(stderr, "re-admission: %zu of %zu candidates within %.4g (variance factor %.3g)\n",
+                   back, cand.size(), bound, factor);
+    if (back == 0) break;
+    for (Vertex& v : work.vertices()) v.x = inliers.vertex(v.id).x;
+    inliers = inliers_graph();
+    out.solve = solve(inliers, 0);
+    ++out.rounds;
+    verify();
   }
 
   for (size_t k = 0; k < graph.edges().size(); ++k)

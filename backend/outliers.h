@@ -72,6 +72,11 @@ struct OutlierRejectionOptions {
   // would lower chi2 by more than the threshold (see SolveRejectingOutliers).
   bool verify = true;
   int max_verify_rounds = 100;
+  // After verification: take back rejected loop closures (chi2 within
+  // readmit_reach c^2) whose innovation statistic is within c^2 times the
+  // a-posteriori variance factor (at most 1), then verify again.
+  bool readmit = true;
+  double readmit_reach = 100;
   bool verbose = false;
 };
 

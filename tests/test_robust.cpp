@@ -286,6 +286,45 @@ TEST(Leverage, PredictsTheFallOfChi2WhenALoopClosureIsDeleted) {
   }
 }
 
+TEST(Leverage, InnovationPredictsTheRiseOfChi2WhenALoopClosureIsAdded) {
+  for (int dim : {2, 3}) {
+    SimulationOptions so;
+    so.dimension = dim;
+    so.poses = dim == 2 ? 200 : 150;
+    so.seed = 23;
+    const PoseGraph full = Simulate(so).noisy;
+    std::vector<size_t> closures;
+    for (size_t k = 0; k < full.edges().size(); ++k)
+      if (full.edges()[k].kind == EdgeKind::kLoopClosure) closures.push_back(k);
+    ASSERT_GE(closures.size(), 10u);
+    closures.resize(10);
+    // The graph without those ten, solved; each is then added back alone.
+    PoseGraph g(dim);
+    for (const Vertex& v : full.vertices()) g.AddVertex(v.id, v.x, v.fixed);
+    std::vector<Edge> candidates;
+    for (size_t k = 0; k < full.edges().size(); ++k) {
+      if (std::find(closures.begin(), closures.end(), k) != closures.end())
+        candidates.push_back(full.edges()[k]);
+      else
+        g.AddEdge(full.edges()[k]);
+    }
+    SolveWithCeres(g, QuietCeres());
+    const std::vector<InnovationStat> predicted = InnovationChi2(g, candidates);
+    const double chi2 = Chi2(g);
+    for (size_t i = 0; i < candidates.size(); ++i) {
+      PoseGraph with = g;
+      with.AddEdge(candidates[i]);
+      const double rise = SolveWithCeres(with, QuietCeres()).final_chi2 - chi2;
+      ASSERT_TRUE(std::isfinite(predicted[i].chi2));
+      EXPECT_GT(rise, 0);
+      EXPECT_NEAR(predicted[i].chi2, rise, 0.02 * rise + 1e-6) << "dim " << dim << " closure " << i;
+      // Adding an edge costs less than its residual at the estimate: the
+      // rest bends towards it.
+      EXPECT_LE(predicted[i].chi2, EdgeChi2(g, candidates[i]) * (1 + 1e-9));
+    }
+  }
+}
+
 TEST(Leverage, AWrongLoopClosureTheEstimateBentToFitStandsOut) {
   SimulationOptions so;
   so.poses = 300;

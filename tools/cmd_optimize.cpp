@@ -129,6 +129,10 @@ int RunOptimize(int argc, char** argv) {
   args.Option("outlier-restart", &rejection.restart_chi2_factor, "F",
               "with --reject-outliers: after that stage, GNC over all loop closures starts "
               "with those beyond F times the threshold at weight 0");
+  bool no_readmit = false;
+  args.Flag("no-outlier-readmission", &no_readmit,
+            "with --reject-outliers: do not take back rejected loop closures whose "
+            "innovation statistic at the final estimate is within the threshold");
   bool no_verify = false;
   args.Flag("no-outlier-verification", &no_verify,
             "with --reject-outliers: skip the check after GNC (kept loop closures whose "
@@ -215,6 +219,7 @@ int RunOptimize(int argc, char** argv) {
       return 2;
     }
     rejection.verify = !no_verify;
+    rejection.readmit = !no_readmit;
     // The inner solves are many: one progress line per GNC round instead.
     rejection.verbose = !quiet;
     CeresOptions inner = o;

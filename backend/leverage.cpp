@@ -90,74 +90,101 @@ class SelectedInverse {
   std::vector<double> z_;
 };
 
+// The normal matrix H = sum J^T J of the whole graph over the poses not
+// held for the gauge (d columns each), factorised: what both statistics
+// below read the poses' covariances from.
+class NormalEquations {
+ public:
+  explicit NormalEquations(const PoseGraph& graph)
+      : graph_(graph),
+        d_(graph.TangentSize()),
+        manifold_(graph.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold()) {
+    const std::vector<bool> held = HeldConstant(graph), touched = TouchedVertices(graph);
+    offset_.assign(graph.vertices().size(), -1);
+    for (size_t v = 0; v < offset_.size(); ++v)
+      if (touched[v] && !held[v]) {
+        offset_[v] = n_;
+        n_ += d_;
+      }
+    if (n_ == 0) return;
+    // Lower triangle.
+    std::vector<Eigen::Triplet<double>> triplets;
+    triplets.reserve(graph.edges().size() * 4 * d_ * d_);
+    for (const Edge& e : graph.edges()) {
+      const Linearized lin = Linearize(graph, e, *manifold_);
+      const int o[2] = {Offset(e.from), e.IsPrior() ? -1 : Offset(e.to)};
+      for (size_t a = 0; a < lin.jac.size(); ++a) {
+        if (o[a] < 0) continue;
+        for (size_t b = 0; b < lin.jac.size(); ++b) {
+          if (o[b] < 0 || o[b] > o[a]) continue;
+          const Eigen::MatrixXd h = lin.jac[a].transpose() * lin.jac[b];
+          for (int i = 0; i < d_; ++i)
+            for (int j = 0; j < d_; ++j)
+              if (o[a] + i >= o[b] + j) triplets.emplace_back(o[a] + i, o[b] + j, h(i, j));
+        }
+      }
+    }
+    Eigen::SparseMatrix<double> H(n_, n_);
+    H.setFromTriplets(triplets.begin(), triplets.end());
+    llt_.compute(H);
+    if (llt_.info() != Eigen::Success)
+      throw std::runtime_error("the information matrix is not positive definite");
+  }
+
+  int size() const { return n_; }
+  const Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower>& llt() const { return llt_; }
+
+  // A between-edge's residual and its Jacobian restricted to its variable
+  // poses (d x m, m = d or 2d), with the columns of H those poses take.
+  Linearized Restricted(const Edge& e, Eigen::MatrixXd* J, std::vector<int>* cols) const {
+    Linearized lin = Linearize(graph_, e, *manifold_);
+    J->resize(d_, 2 * d_);
+    cols->clear();
+    int m = 0;
+    for (int a = 0; a < 2; ++a) {
+      const int o = Offset(a == 0 ? e.from : e.to);
+      if (o < 0) continue;
+      J->middleCols(m, d_) = lin.jac[a];
+      for (int i = 0; i < d_; ++i) cols->push_back(o + i);
+      m += d_;
+    }
+    J->conservativeResize(d_, m);
+    return lin;
+  }
+
+ private:
+  int Offset(int64_t id) const { return offset_[graph_.VertexIndex(id)]; }
+
+  const PoseGraph& graph_;
+  int d_, n_ = 0;
+  std::unique_ptr<ceres::Manifold> manifold_;
+  std::vector<int> offset_;  // per vertex index: first column in H, -1 when held
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt_;
+};
+
 }  // namespace
 
 std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vector<size_t>& edges) {
-  const int d = graph.TangentSize();
-  const std::unique_ptr<ceres::Manifold> manifold =
-      graph.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
-  // Variables: the touched vertices not held for the gauge, d columns each.
-  const std::vector<bool> held = HeldConstant(graph), touched = TouchedVertices(graph);
-  const auto& vertices = graph.vertices();
-  std::vector<int> offset(vertices.size(), -1);
-  int n = 0;
-  for (size_t v = 0; v < vertices.size(); ++v)
-    if (touched[v] && !held[v]) {
-      offset[v] = n;
-      n += d;
-    }
-  auto vertex_offset = [&](int64_t id) { return offset[graph.VertexIndex(id)]; };
-
-  // H = sum J^T J, lower triangle.
-  std::vector<Eigen::Triplet<double>> triplets;
-  triplets.reserve(graph.edges().size() * 4 * d * d);
-  for (const Edge& e : graph.edges()) {
-    const Linearized lin = Linearize(graph, e, *manifold);
-    const int o[2] = {vertex_offset(e.from), e.IsPrior() ? -1 : vertex_offset(e.to)};
-    for (size_t a = 0; a < lin.jac.size(); ++a) {
-      if (o[a] < 0) continue;
-      for (size_t b = 0; b < lin.jac.size(); ++b) {
-        if (o[b] < 0 || o[b] > o[a]) continue;
-        const Eigen::MatrixXd h = lin.jac[a].transpose() * lin.jac[b];
-        for (int i = 0; i < d; ++i)
-          for (int j = 0; j < d; ++j)
-            if (o[a] + i >= o[b] + j) triplets.emplace_back(o[a] + i, o[b] + j, h(i, j));
-      }
-    }
-  }
   std::vector<double> out(edges.size(), std::numeric_limits<double>::quiet_NaN());
-  if (n == 0) return out;
-  Eigen::SparseMatrix<double> H(n, n);
-  H.setFromTriplets(triplets.begin(), triplets.end());
-  triplets = {};
-  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt(H);
-  if (llt.info() != Eigen::Success)
-    throw std::runtime_error("the information matrix is not positive definite");
-  const Eigen::SparseMatrix<double> L = llt.matrixL().nestedExpression();
+  const NormalEquations normal(graph);
+  if (normal.size() == 0) return out;
+  const int d = graph.TangentSize();
+  const Eigen::SparseMatrix<double> L = normal.llt().matrixL().nestedExpression();
   const SelectedInverse z(L);
   // The factor is of P H P^T: Sigma(p, q) = Z(perm[p], perm[q]).
-  const Eigen::VectorXi perm = llt.permutationP().indices();
-
+  const Eigen::VectorXi perm = normal.llt().permutationP().indices();
+  Eigen::MatrixXd J;
+  std::vector<int> cols;
   for (size_t k = 0; k < edges.size(); ++k) {
     const Edge& e = graph.edges()[edges[k]];
     if (e.IsPrior()) throw std::invalid_argument("DeletedResidualChi2: a prior is no between-edge");
-    const Linearized lin = Linearize(graph, e, *manifold);
     // J restricted to the variable poses, and those poses' joint covariance.
-    std::vector<int> cols;
-    Eigen::MatrixXd J(d, 2 * d);
-    int m = 0;
-    for (int a = 0; a < 2; ++a) {
-      const int o = vertex_offset(a == 0 ? e.from : e.to);
-      if (o < 0) continue;
-      J.middleCols(m, d) = lin.jac[a];
-      for (int i = 0; i < d; ++i) cols.push_back(o + i);
-      m += d;
-    }
+    const Linearized lin = normal.Restricted(e, &J, &cols);
+    const int m = static_cast<int>(cols.size());
     Eigen::MatrixXd S(m, m);
     for (int i = 0; i < m; ++i)
       for (int j = 0; j <= i; ++j) S(i, j) = S(j, i) = z.At(perm[cols[i]], perm[cols[j]]);
-    const Eigen::MatrixXd M =
-        Eigen::MatrixXd::Identity(d, d) - J.leftCols(m) * S * J.leftCols(m).transpose();
+    const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(d, d) - J * S * J.transpose();
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(M);
     // 1 - leverage: near 0, the edge alone decides a direction.
     if (eig.info() != Eigen::Success || eig.eigenvalues().minCoeff() < 1e-9) continue;
@@ -168,65 +195,25 @@ std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vecto
 }
 
 std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::vector<Edge>& candidates) {
-  const int d = graph.TangentSize();
-  const std::unique_ptr<ceres::Manifold> manifold =
-      graph.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
-  const std::vector<bool> held = HeldConstant(graph), touched = TouchedVertices(graph);
-  const auto& vertices = graph.vertices();
-  std::vector<int> offset(vertices.size(), -1);
-  int n = 0;
-  for (size_t v = 0; v < vertices.size(); ++v)
-    if (touched[v] && !held[v]) {
-      offset[v] = n;
-      n += d;
-    }
-  auto vertex_offset = [&](int64_t id) { return offset[graph.VertexIndex(id)]; };
-  std::vector<Eigen::Triplet<double>> triplets;
-  triplets.reserve(graph.edges().size() * 4 * d * d);
-  for (const Edge& e : graph.edges()) {
-    const Linearized lin = Linearize(graph, e, *manifold);
-    const int o[2] = {vertex_offset(e.from), e.IsPrior() ? -1 : vertex_offset(e.to)};
-    for (size_t a = 0; a < lin.jac.size(); ++a) {
-      if (o[a] < 0) continue;
-      for (size_t b = 0; b < lin.jac.size(); ++b) {
-        if (o[b] < 0 || o[b] > o[a]) continue;
-        const Eigen::MatrixXd h = lin.jac[a].transpose() * lin.jac[b];
-        for (int i = 0; i < d; ++i)
-          for (int j = 0; j < d; ++j)
-            if (o[a] + i >= o[b] + j) triplets.emplace_back(o[a] + i, o[b] + j, h(i, j));
-      }
-    }
-  }
   const double nan = std::numeric_limits<double>::quiet_NaN();
   std::vector<InnovationStat> out(candidates.size(), InnovationStat{nan, nan});
+  const NormalEquations normal(graph);
+  const int n = normal.size(), d = graph.TangentSize();
   if (n == 0) return out;
-  Eigen::SparseMatrix<double> H(n, n);
-  H.setFromTriplets(triplets.begin(), triplets.end());
-  triplets = {};
-  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt(H);
-  if (llt.info() != Eigen::Success)
-    throw std::runtime_error("the information matrix is not positive definite");
+  Eigen::MatrixXd J;
+  std::vector<int> cols;
   for (size_t k = 0; k < candidates.size(); ++k) {
-    const Edge& e = candidates[k];
-    const Linearized lin = Linearize(graph, e, *manifold);
-    std::vector<int> cols;
-    Eigen::MatrixXd J(d, 2 * d);
-    int m = 0;
-    for (int a = 0; a < 2; ++a) {
-      const int o = vertex_offset(a == 0 ? e.from : e.to);
-      if (o < 0) continue;
-      J.middleCols(m, d) = lin.jac[a];
-      for (int i = 0; i < d; ++i) cols.push_back(o + i);
-      m += d;
-    }
+    const Linearized lin = normal.Restricted(candidates[k], &J, &cols);
+    const int m = static_cast<int>(cols.size());
+    // The two poses' joint covariance: H X = E for their unit columns.
     Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n, m);
     for (int i = 0; i < m; ++i) E(cols[i], i) = 1;
-    const Eigen::MatrixXd X = llt.solve(E);
+    const Eigen::MatrixXd X = normal.llt().solve(E);
     Eigen::MatrixXd S(m, m);
     for (int i = 0; i < m; ++i)
       for (int j = 0; j < m; ++j) S(i, j) = X(cols[i], j);
     S = (S + S.transpose()).eval() / 2;
-    const Eigen::MatrixXd P = J.leftCols(m) * S * J.leftCols(m).transpose();
+    const Eigen::MatrixXd P = J * S * J.transpose();
     const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(d, d) + P;
     out[k].chi2 = lin.r.dot(M.ldlt().solve(lin.r));
     out[k].spread = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(P).eigenvalues().maxCoeff();

@@ -60,8 +60,8 @@ class SparseCholesky {
   virtual bool IsSupernodal() const = 0;
 
   // Reusing an ordering: a block permutation (block k is eliminated at
-  // position k) that the next Analyze takes instead of computing AMD; empty
-  // for AMD. Lets a graph that only grew keep its old ordering with the new
+  // position k) that the next Analyze takes instead of computing AMD (then
+  // postorders on its elimination tree, as it does AMD's); empty for AMD. Lets a graph that only grew keep its old ordering with the new
   // poses appended. Backends that order internally (Eigen) ignore it.
   virtual void SetBlockOrdering(const std::vector<int>& block_perm) {}
   // The block permutation the last Analyze used; empty when unknown.

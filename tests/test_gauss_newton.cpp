@@ -211,11 +211,6 @@ TEST(GaussNewton, RobustLossDownWeightsAWrongLoopClosure) {
   EXPECT_GT(error(plain), 2 * error(robust));
 }
 
-}  // namespace
-}  // namespace cairn
-
-namespace cairn {
-namespace {
 
 TEST(GaussNewton, ChordStepsReachTheSameOptimumWithFewerFactorisations) {
   SimulationOptions so;
@@ -243,11 +238,6 @@ TEST(GaussNewton, ChordStepsReachTheSameOptimumWithFewerFactorisations) {
               1e-7);
 }
 
-}  // namespace
-}  // namespace cairn
-
-namespace cairn {
-namespace {
 
 // The upper triangle (compressed columns) of a random sparse SPD matrix of
 // 3x3 blocks: a chain of blocks plus a few random couplings, with every
@@ -354,11 +344,6 @@ TEST(SparseCholesky, ExtendKeepsTheOrderAndSolvesTheGrownMatrix) {
   }
 }
 
-}  // namespace
-}  // namespace cairn
-
-namespace cairn {
-namespace {
 
 TEST(SerialLinearAlgebraScope, TurnsLibraryThreadsOffAndRestoresThem) {
   auto get_levels = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "omp_get_max_active_levels"));

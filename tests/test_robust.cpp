@@ -24,22 +24,18 @@
 namespace cairn {
 namespace {
 
-CeresOptions QuietCeres() {
-  CeresOptions o;
+// Either solver's options, converging fully.
+template <typename Options>
+Options Tight() {
+  Options o;
   o.function_tolerance = 1e-14;
   o.gradient_tolerance = 1e-14;
   o.parameter_tolerance = 1e-14;
   o.max_iterations = 200;
   return o;
 }
-GaussNewtonOptions QuietGn() {
-  GaussNewtonOptions o;
-  o.function_tolerance = 1e-14;
-  o.gradient_tolerance = 1e-14;
-  o.parameter_tolerance = 1e-14;
-  o.max_iterations = 200;
-  return o;
-}
+CeresOptions QuietCeres() { return Tight<CeresOptions>(); }
+GaussNewtonOptions QuietGn() { return Tight<GaussNewtonOptions>(); }
 
 double RmsPositionDifference(const PoseGraph& a, const PoseGraph& b) {
   double sum = 0;

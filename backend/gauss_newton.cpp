@@ -398,7 +398,7 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   w.diagonal_saved.resize(w.n);
   for (int v : variables) w.x_saved.insert(w.x_saved.end(), blocks_[v].values, blocks_[v].values + blocks_[v].size);
 
-  w.linear_solver = ResolveCholeskyKind(options.linear_solver);
+  w.linear_solver = ResolveCholeskyKind(options.linear_solver, pool_->size());
   std::vector<int> block_sizes;
   for (int v : variables) block_sizes.push_back(blocks_[v].tangent);
   if (kept && kept_kind == w.linear_solver && kept_variables.size() <= variables.size() &&
@@ -665,8 +665,9 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   Prepare(options);
   Workspace& w = *ws_;
   result.linear_solver = ToString(w.linear_solver);
-  if (w.linear_solver == CholeskyKind::kCholmodAuto && w.cholesky)
-    result.linear_solver += w.cholesky->IsSupernodal() ? ": supernodal" : ": simplicial";
+  if ((w.linear_solver == CholeskyKind::kCholmodAuto ||
+       w.linear_solver == CholeskyKind::kCholmodParallel) && w.cholesky)
+    result.linear_solver += ": " + w.cholesky->Method();
   auto progress = [&](const IterationRecord& it) {
     if (options.verbose) std::fprintf(stderr, "%s\n", FormatIteration(it).c_str());
   };

@@ -15,10 +15,11 @@ ThreadPool::~ThreadPool() {
   for (auto& t : workers_) t.join();
 }
 
-void ThreadPool::ParallelFor(size_t n, const std::function<void(size_t, size_t)>& fn) {
+void ThreadPool::ParallelFor(size_t n, const std::function<void(size_t, size_t)>& fn,
+                             size_t min_items_per_thread) {
   const size_t parts = static_cast<size_t>(size());
   // Small loops stay on this thread: waking a worker costs more than they do.
-  if (parts == 1 || n < kMinItemsPerThread * parts) {
+  if (parts == 1 || n < min_items_per_thread * parts) {
     fn(0, n);
     return;
   }

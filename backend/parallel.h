@@ -21,8 +21,10 @@ class ThreadPool {
   int size() const { return static_cast<int>(workers_.size()) + 1; }
   static constexpr size_t kMinItemsPerThread = 256;
   // Calls fn(begin, end) on contiguous chunks covering [0, n), one chunk per
-  // thread, the caller's thread included; returns when all are done.
-  void ParallelFor(size_t n, const std::function<void(size_t, size_t)>& fn);
+  // thread, the caller's thread included; returns when all are done. Loops
+  // of fewer than min_items_per_thread items a thread stay on the caller's.
+  void ParallelFor(size_t n, const std::function<void(size_t, size_t)>& fn,
+                   size_t min_items_per_thread = kMinItemsPerThread);
 
  private:
   void Work(int index);

@@ -1,5 +1,7 @@
 #include "backend/sparse_cholesky.h"
 
+#include "backend/block_ordering.h"
+#include "backend/domain_cholesky.h"
 #include "backend/serial_scope.h"
 
 #include <cholmod.h>
@@ -17,9 +19,10 @@ CholeskyKind ParseCholeskyKind(const std::string& name) {
   if (name == "cholmod" || name == "supernodal") return CholeskyKind::kCholmodSupernodal;
   if (name == "simplicial") return CholeskyKind::kCholmodSimplicial;
   if (name == "cholmod-auto") return CholeskyKind::kCholmodAuto;
+  if (name == "parallel") return CholeskyKind::kCholmodParallel;
   if (name == "eigen") return CholeskyKind::kEigenLDLT;
   throw std::invalid_argument("unknown linear solver '" + name +
-                              "' (auto, supernodal, simplicial, cholmod-auto or eigen)");
+                              "' (auto, supernodal, simplicial, cholmod-auto, parallel or eigen)");
 }
 
 const char* ToString(CholeskyKind kind) {
@@ -29,6 +32,7 @@ const char* ToString(CholeskyKind kind) {
     case CholeskyKind::kCholmodSimplicial: return "cholmod-simplicial";
     case CholeskyKind::kCholmodAuto: return "cholmod-auto";
     case CholeskyKind::kEigenLDLT: return "eigen-ldlt";
+    case CholeskyKind::kCholmodParallel: return "cholmod-parallel";
   }
   return "?";
 }
@@ -39,26 +43,8 @@ class Cholmod final : public SparseCholesky {
  public:
   explicit Cholmod(int mode) {
     cholmod_start(&common_);
+    ConfigureCholmod(&common_);
     common_.supernodal = mode_ = mode;
-    // AMD alone: the default also tries METIS/NESDIS, which costs more in the
-    // one-off analysis than it saves on pose graphs.
-    common_.nmethods = 1;
-    common_.method[0].ordering = CHOLMOD_AMD;
-    common_.postorder = 1;
-    common_.print = 0;
-    // Coarser supernodes than CHOLMOD's defaults (4/16/48 columns, 80/10/5%
-    // explicit zeros): a pose graph's supernodes are narrow, and BLAS runs
-    // faster on fewer, larger dense blocks than the zeros cost. Measured on
-    // the normal matrices of city10000 and sphere2500 (bench_gauss_newton):
-    // 58 -> 37 ms and 41 -> 30 ms per factorisation, for 1.7 and 1.5 times
-    // the nonzeros.
-    common_.nrelax[0] = 16;
-    common_.nrelax[1] = 64;
-    common_.nrelax[2] = 128;
-    common_.zrelax[0] = 0.8;
-    common_.zrelax[1] = 0.3;
-    common_.zrelax[2] = 0.1;
-    common_.error_handler = nullptr;
   }
   ~Cholmod() override {
     if (factor_) cholmod_free_factor(&factor_, &common_);
@@ -202,46 +188,10 @@ class Cholmod final : public SparseCholesky {
   void AnalyzePermuted(const std::vector<int>& rows, const std::vector<int>& col_ptr,
                        int method = -1) {
     const int n = n_;
-    const bool upper = !supernodal_;  // the simplicial method reads triu, the supernodal tril
     std::vector<int> inverse(n);
     for (int k = 0; k < n; ++k) inverse[perm_[k]] = k;
-    const size_t nnz = rows.size();
-    // Entry k of H (row rows[k] of column j) lands at (new_row, new_col).
-    auto place = [&](int k, int j, int* new_row, int* new_col) {
-      const int pi = inverse[rows[k]], pj = inverse[j];
-      *new_row = upper ? std::min(pi, pj) : std::max(pi, pj);
-      *new_col = upper ? std::max(pi, pj) : std::min(pi, pj);
-    };
-    // Counting sort by row, then stably by column: rows sorted in columns.
-    std::vector<int> row_start(n + 1, 0), by_row(nnz);
-    int r, c;
-    for (int j = 0; j < n; ++j)
-      for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) place(k, j, &r, &c), ++row_start[r + 1];
-    for (int i = 0; i < n; ++i) row_start[i + 1] += row_start[i];
-    std::vector<int> next(row_start.begin(), row_start.end() - 1);
-    scatter_.resize(nnz);  // first the column of each entry, then its place
-    for (int j = 0; j < n; ++j)
-      for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) {
-        place(k, j, &r, &c);
-        by_row[next[r]++] = k;
-        scatter_[k] = c;
-      }
-    std::vector<int> col_start(n + 1, 0);
-    for (size_t k = 0; k < nnz; ++k) ++col_start[scatter_[k] + 1];
-    for (int i = 0; i < n; ++i) col_start[i + 1] += col_start[i];
-    permuted_ = cholmod_allocate_sparse(n, n, nnz, /*sorted=*/1, /*packed=*/1, upper ? 1 : -1,
-                                        CHOLMOD_REAL, &common_);
-    if (!permuted_) throw std::runtime_error("CHOLMOD: out of memory allocating the normal matrix");
-    std::memcpy(permuted_->p, col_start.data(), sizeof(int) * (n + 1));
-    int* pi = static_cast<int*>(permuted_->i);
-    for (int row = 0; row < n; ++row)
-      for (int t = row_start[row]; t < row_start[row + 1]; ++t) {
-        const int k = by_row[t];
-        const int at = col_start[scatter_[k]]++;
-        pi[at] = row;
-        scatter_[k] = at;
-      }
-    std::memset(permuted_->x, 0, sizeof(double) * nnz);
+    // The simplicial method reads the upper triangle, the supernodal the lower.
+    permuted_ = LocalPattern(col_ptr, rows, inverse, n, /*upper=*/!supernodal_, &scatter_, &common_);
     // Already in the fill-reducing order (postordered): analysed as is.
     common_.method[0].ordering = CHOLMOD_NATURAL;
     common_.postorder = 0;
@@ -253,108 +203,18 @@ class Cholmod final : public SparseCholesky {
     b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, &common_);
   }
 
-  // AMD on the block graph (or the given block ordering), expanded to
-  // scalars; empty when not blocked.
+  // AMD on the block graph (or the given block ordering), postordered and
+  // expanded to scalars; empty when not blocked.
   std::vector<int> ScalarOrdering(int n, const std::vector<int>& col_ptr,
                                   const std::vector<int>& rows,
                                   const std::vector<int>& block_sizes) {
     if (block_sizes.size() < 2) return {};
-    const int nb = static_cast<int>(block_sizes.size());
-    std::vector<int> first(nb + 1, 0), block_of(n);
-    for (int b = 0; b < nb; ++b) first[b + 1] = first[b] + block_sizes[b];
-    if (first[nb] != n) throw std::invalid_argument("block sizes do not add up to the matrix size");
-    for (int b = 0; b < nb; ++b)
-      for (int i = first[b]; i < first[b + 1]; ++i) block_of[i] = b;
-    // The last scalar column of a block holds every block row it touches.
-    std::vector<int> bp(nb + 1, 0), bi;
-    for (int b = 0; b < nb; ++b) {
-      const int col = first[b + 1] - 1;
-      int last = -1;
-      for (int k = col_ptr[col]; k < col_ptr[col + 1]; ++k) {
-        const int rb = block_of[rows[k]];
-        if (rb != last) bi.push_back(last = rb);
-      }
-      bp[b + 1] = static_cast<int>(bi.size());
-    }
-    if (static_cast<int>(given_.size()) == nb) {
-      used_ = Postordered(given_, bp, bi);
-      return Expand(used_, first, n);
-    }
-    cholmod_sparse* pattern = cholmod_allocate_sparse(nb, nb, bi.size(), 1, 1, 1, CHOLMOD_PATTERN, &common_);
-    std::memcpy(pattern->p, bp.data(), sizeof(int) * (nb + 1));
-    std::memcpy(pattern->i, bi.data(), sizeof(int) * bi.size());
-    std::vector<int> block_perm(nb);
-    const int ok = cholmod_amd(pattern, nullptr, 0, block_perm.data(), &common_);
-    cholmod_free_sparse(&pattern, &common_);
-    if (!ok) return {};
-    used_ = Postordered(block_perm, bp, bi);
-    return Expand(used_, first, n);
-  }
-
-  // The block ordering followed by a postorder of the block graph's
-  // elimination tree in it: the columns of each subtree, hence of each
-  // supernode, become contiguous, as CHOLMOD's own analysis would order
-  // them (it postorders the scalar tree, which within a block is a chain).
-  // Same fill; the symbolic factorisation then needs no ordering of its own.
-  static std::vector<int> Postordered(const std::vector<int>& order, const std::vector<int>& bp,
-                                      const std::vector<int>& bi) {
-    const int nb = static_cast<int>(order.size());
-    std::vector<int> inverse(nb);
-    for (int k = 0; k < nb; ++k) inverse[order[k]] = k;
-    // Upper triangle of the permuted block pattern, by column.
-    std::vector<int> start(nb + 1, 0);
-    for (int b = 0; b < nb; ++b)
-      for (int k = bp[b]; k < bp[b + 1]; ++k)
-        if (bi[k] != b) ++start[std::max(inverse[bi[k]], inverse[b]) + 1];
-    for (int j = 0; j < nb; ++j) start[j + 1] += start[j];
-    std::vector<int> above(start[nb]), next(start.begin(), start.end() - 1);
-    for (int b = 0; b < nb; ++b)
-      for (int k = bp[b]; k < bp[b + 1]; ++k)
-        if (bi[k] != b) {
-          const int i = inverse[bi[k]], j = inverse[b];
-          above[next[std::max(i, j)]++] = std::min(i, j);
-        }
-    // Liu's algorithm, with path compression through `ancestor`.
-    std::vector<int> parent(nb, -1), ancestor(nb, -1);
-    for (int j = 0; j < nb; ++j)
-      for (int t = start[j]; t < start[j + 1]; ++t)
-        for (int i = above[t]; i != -1 && i < j;) {
-          const int up = ancestor[i];
-          ancestor[i] = j;
-          if (up == -1) parent[i] = j;
-          i = up;
-        }
-    // Children in increasing order, then depth-first from each root.
-    std::vector<int> head(nb, -1), sibling(nb, -1);
-    for (int j = nb - 1; j >= 0; --j)
-      if (parent[j] != -1) sibling[j] = head[parent[j]], head[parent[j]] = j;
-    std::vector<int> post, stack;
-    post.reserve(nb);
-    for (int root = 0; root < nb; ++root) {
-      if (parent[root] != -1) continue;
-      stack.push_back(root);
-      while (!stack.empty()) {
-        const int j = stack.back();
-        if (head[j] != -1) {
-          const int child = head[j];
-          head[j] = sibling[child];
-          stack.push_back(child);
-        } else {
-          stack.pop_back();
-          post.push_back(order[j]);
-        }
-      }
-    }
-    return post;
-  }
-
-  static std::vector<int> Expand(const std::vector<int>& block_perm, const std::vector<int>& first,
-                                 int n) {
-    std::vector<int> perm;
-    perm.reserve(n);
-    for (int b : block_perm)
-      for (int i = first[b]; i < first[b + 1]; ++i) perm.push_back(i);
-    return perm;
+    const BlockPattern pattern = MakeBlockPattern(n, col_ptr, rows, block_sizes);
+    std::vector<int> order = given_;
+    if (static_cast<int>(order.size()) != pattern.blocks()) order = AmdBlockOrder(pattern, &common_);
+    if (order.empty()) return {};
+    used_ = Postordered(order, pattern);
+    return ExpandBlocks(used_, pattern);
   }
 
   std::vector<int> given_, used_;
@@ -405,13 +265,15 @@ class EigenLDLT final : public SparseCholesky {
 
 }  // namespace
 
-CholeskyKind ResolveCholeskyKind(CholeskyKind kind) {
-  return kind == CholeskyKind::kAuto ? CholeskyKind::kCholmodAuto : kind;
+CholeskyKind ResolveCholeskyKind(CholeskyKind kind, int threads) {
+  if (kind != CholeskyKind::kAuto) return kind;
+  return threads >= 2 ? CholeskyKind::kCholmodParallel : CholeskyKind::kCholmodAuto;
 }
 
 std::unique_ptr<SparseCholesky> SparseCholesky::Create(CholeskyKind kind) {
   switch (kind) {
-    case CholeskyKind::kAuto: return Create(ResolveCholeskyKind(kind));
+    case CholeskyKind::kAuto: return Create(ResolveCholeskyKind(kind, 1));
+    case CholeskyKind::kCholmodParallel: return CreateDomainCholesky();
     case CholeskyKind::kCholmodSupernodal: return std::make_unique<Cholmod>(CHOLMOD_SUPERNODAL);
     case CholeskyKind::kCholmodSimplicial: return std::make_unique<Cholmod>(CHOLMOD_SIMPLICIAL);
     case CholeskyKind::kCholmodAuto: return std::make_unique<Cholmod>(CHOLMOD_AUTO);

@@ -14,19 +14,24 @@ enum class CholeskyKind {
   kCholmodSimplicial,  // CHOLMOD, simplicial (up-looking; good on small 2D graphs)
   kCholmodAuto,        // CHOLMOD chooses by flops per nonzero
   kEigenLDLT,          // Eigen's SimplicialLDLT with AMD: the fallback without CHOLMOD
+  kCholmodParallel,    // CHOLMOD on two halves of the graph at once (domain_cholesky.h)
 };
 
 // Parses "auto", "supernodal" (or "cholmod"), "simplicial", "cholmod-auto",
-// "eigen"; throws std::invalid_argument otherwise.
+// "parallel", "eigen"; throws std::invalid_argument otherwise.
 CholeskyKind ParseCholeskyKind(const std::string& name);
 const char* ToString(CholeskyKind kind);
 
-// kAuto made concrete: CHOLMOD choosing per matrix between its supernodal
-// and simplicial methods by flops per nonzero of the factor. With cairn's
-// coarser supernodes that picks the faster one on every shared file
-// (simplicial for intel, MIT and manhattan, supernodal for city10000 and the
-// 3D files; docs/benchmarks.md). Other kinds are returned as given.
-CholeskyKind ResolveCholeskyKind(CholeskyKind kind);
+// kAuto made concrete for a solver with `threads` threads: with two or more,
+// kCholmodParallel, which splits a large graph in two halves factorised at
+// once and leaves a small one (or one that splits badly) to CHOLMOD's
+// choice; with one, that choice, kCholmodAuto: CHOLMOD choosing per matrix
+// between its supernodal and simplicial methods by flops per nonzero of the
+// factor. With cairn's coarser supernodes that picks the faster one on
+// every shared file (simplicial for intel, MIT and manhattan, supernodal for
+// city10000 and the 3D files; docs/benchmarks.md). Other kinds are
+// returned as given.
+CholeskyKind ResolveCholeskyKind(CholeskyKind kind, int threads);
 
 class SparseCholesky {
  public:
@@ -58,6 +63,8 @@ class SparseCholesky {
   // Nonzeros of the factor (after the first Factorize).
   virtual long FactorNonZeros() const = 0;
   virtual bool IsSupernodal() const = 0;
+  // How the last Analyze chose to factorise, for reports.
+  virtual std::string Method() const { return IsSupernodal() ? "supernodal" : "simplicial"; }
 
   // Reusing an ordering: a block permutation (block k is eliminated at
   // position k) that the next Analyze takes instead of computing AMD (then

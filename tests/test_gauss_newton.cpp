@@ -13,6 +13,7 @@
 
 #include "backend/ceres_solver.h"
 #include "backend/chi2.h"
+#include "backend/domain_cholesky.h"
 #include "backend/graph_gauss_newton.h"
 #include "backend/pose_difference.h"
 #include "backend/serial_scope.h"
@@ -166,7 +167,8 @@ TEST(GaussNewton, EveryLinearSolverAgrees) {
   std::vector<PoseGraph> results;
   std::vector<double> chi2;
   for (CholeskyKind kind : {CholeskyKind::kCholmodSupernodal, CholeskyKind::kCholmodSimplicial,
-                            CholeskyKind::kCholmodAuto, CholeskyKind::kEigenLDLT}) {
+                            CholeskyKind::kCholmodAuto, CholeskyKind::kCholmodParallel,
+                            CholeskyKind::kEigenLDLT}) {
     PoseGraph g = sim.noisy;
     GaussNewtonOptions o = Quiet();
     o.linear_solver = kind;
@@ -342,6 +344,90 @@ TEST(SparseCholesky, ExtendKeepsTheOrderAndSolvesTheGrownMatrix) {
                               std::vector<int>(changed.blocks, 3)));
     EXPECT_LT((SolveWith(*chol, a, grown_ptr, grown_rows, b) - a.ldlt().solve(b)).norm(), 1e-10);
   }
+}
+
+// A grid of blocks (a city's streets) with a few long couplings: large
+// enough to be cut into two halves, which CHOLMOD's single factorisation
+// never sees.
+BlockMatrix Grid(int side) {
+  BlockMatrix m;
+  m.blocks = side * side;
+  for (int r = 0; r < side; ++r)
+    for (int c = 0; c < side; ++c) {
+      const int b = r * side + c;
+      if (c + 1 < side) m.couplings.push_back({b, b + 1});
+      if (r + 1 < side) m.couplings.push_back({b, b + side});
+    }
+  const int half = m.blocks / 2;
+  for (int k = 0; k < 10; ++k) {
+    const int i = (7 * k) % half, j = m.blocks - 1 - (11 * k) % half;
+    if (j - i != 1 && j - i != side) m.couplings.push_back({i, j});
+  }
+  return m;
+}
+
+TEST(SparseCholesky, TwoHalvesAtOnceSolveExactly) {
+  const BlockMatrix m = Grid(24);
+  std::vector<int> col_ptr, rows;
+  m.Pattern(&col_ptr, &rows);
+  const std::vector<int> sizes(m.blocks, 3);
+  auto chol = CreateDomainCholesky(/*min_work=*/0);
+  chol->Analyze(3 * m.blocks, col_ptr, rows, sizes);
+  ASSERT_NE(chol->Method().find("two halves"), std::string::npos) << chol->Method();
+  const Eigen::MatrixXd a = m.Dense(5);
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(a.rows(), -2, 1);
+  const Eigen::VectorXd expected = a.ldlt().solve(b);
+  EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - expected).norm(), 1e-10 * expected.norm());
+  // Its factor has the fill of one factorisation in the same order.
+  auto whole = SparseCholesky::Create(CholeskyKind::kCholmodSupernodal);
+  whole->SetBlockOrdering(chol->BlockOrdering());
+  whole->Analyze(3 * m.blocks, col_ptr, rows, sizes);
+  SolveWith(*whole, a, col_ptr, rows, b);
+  EXPECT_NEAR(static_cast<double>(chol->FactorNonZeros()) / whole->FactorNonZeros(), 1.0, 0.1);
+
+  // Refactorised with other values, then with a given order (a graph that
+  // grew): cut in that order's elimination tree.
+  const Eigen::MatrixXd a2 = m.Dense(6);
+  EXPECT_LT((SolveWith(*chol, a2, col_ptr, rows, b) - a2.ldlt().solve(b)).norm(), 1e-9);
+  auto given = CreateDomainCholesky(0);
+  given->SetBlockOrdering(chol->BlockOrdering());
+  given->Analyze(3 * m.blocks, col_ptr, rows, sizes);
+  EXPECT_NE(given->Method().find("two halves"), std::string::npos) << given->Method();
+  EXPECT_LT((SolveWith(*given, a, col_ptr, rows, b) - expected).norm(), 1e-10 * expected.norm());
+}
+
+TEST(SparseCholesky, TwoHalvesRefuseAMatrixThatIsNotPositiveDefinite) {
+  const BlockMatrix m = Grid(20);
+  std::vector<int> col_ptr, rows;
+  m.Pattern(&col_ptr, &rows);
+  auto chol = CreateDomainCholesky(0);
+  chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
+  ASSERT_NE(chol->Method().find("two halves"), std::string::npos);
+  // Indefinite in each block in turn: in one half, the other, or the separator.
+  for (int block = 0; block < m.blocks; block += 7) {
+    Eigen::MatrixXd a = m.Dense(7);
+    a(3 * block, 3 * block) = -1;
+    double* v = chol->values();
+    for (int j = 0; j + 1 < static_cast<int>(col_ptr.size()); ++j)
+      for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) v[k] = a(rows[k], j);
+    EXPECT_FALSE(chol->Factorize()) << "block " << block;
+  }
+  // And positive definite again afterwards.
+  const Eigen::MatrixXd a = m.Dense(8);
+  const Eigen::VectorXd b = Eigen::VectorXd::Ones(a.rows());
+  EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - a.ldlt().solve(b)).norm(), 1e-9);
+}
+
+TEST(SparseCholesky, TwoHalvesLeaveASmallGraphToOneFactorisation) {
+  BlockMatrix m = Grid(6);
+  std::vector<int> col_ptr, rows;
+  m.Pattern(&col_ptr, &rows);
+  auto chol = SparseCholesky::Create(CholeskyKind::kCholmodParallel);
+  chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
+  EXPECT_EQ(chol->Method().find("two halves"), std::string::npos) << chol->Method();
+  const Eigen::MatrixXd a = m.Dense(9);
+  const Eigen::VectorXd b = Eigen::VectorXd::Ones(a.rows());
+  EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - a.ldlt().solve(b)).norm(), 1e-10);
 }
 
 

@@ -20,10 +20,8 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
-#include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <stdexcept>
 
 #include "backend/block_ordering.h"
@@ -275,12 +273,11 @@ struct Half {
 
 class DomainCholmod final : public SparseCholesky {
  public:
-  explicit DomainCholmod(double min_work) : min_work_(min_work), pool_(2) {}
+  explicit DomainCholmod(double min_work) : min_work_(min_work) {}
 
   void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
                const std::vector<int>& block_sizes) override {
     Release();
-    n_ = n;
     if (block_sizes.size() < 2) return Whole(n, col_ptr, rows, block_sizes);
     const BlockPattern pattern = MakeBlockPattern(n, col_ptr, rows, block_sizes);
     // A given order (a graph that grew) is cut in its elimination tree;
@@ -318,22 +315,31 @@ class DomainCholmod final : public SparseCholesky {
         if (top_index[rows[k]] >= 0 && top_index[j] >= 0)
           c_entries_.push_back({static_cast<size_t>(k), top_index[rows[k]], top_index[j]});
     values_.assign(rows.size(), 0.0);
-    pool_.ParallelFor(2, [&](size_t begin, size_t end) {
-      for (size_t g = begin; g < end; ++g) {
-        Half& h = half_[g];
-        std::vector<int> local(n, -1);
-        for (size_t t = 0; t < h.unknowns.size(); ++t) local[h.unknowns[t]] = static_cast<int>(t);
-        h.m = LocalPattern(col_ptr, rows, local, static_cast<int>(h.unknowns.size()),
-                           /*upper=*/false, &h.scatter, &h.common);
-        SerialLinearAlgebraScope serial;
-        h.Analyze();
-      }
+    const int nt = static_cast<int>(top_.size());
+    s_.setZero(nt, nt);
+    x_top_.setZero(nt);
+    for (Eigen::VectorXd& v : through_) v.setZero(nt);
+    if (!pool_) pool_ = std::make_unique<ThreadPool>(2);
+    std::exception_ptr failed[2];
+    pool_->ParallelFor(2, [&](size_t begin, size_t end) {
+      for (size_t g = begin; g < end; ++g) try {
+          Half& h = half_[g];
+          std::vector<int> local(n, -1);
+          for (size_t t = 0; t < h.unknowns.size(); ++t) local[h.unknowns[t]] = static_cast<int>(t);
+          h.m = LocalPattern(col_ptr, rows, local, static_cast<int>(h.unknowns.size()),
+                             /*upper=*/false, &h.scatter, &h.common);
+          SerialLinearAlgebraScope serial;
+          h.Analyze();
+        } catch (...) {
+          failed[g] = std::current_exception();
+        }
     }, 1);
+    for (const std::exception_ptr& e : failed)
+      if (e) std::rethrow_exception(e);
     // The cut is a separator: every entry of H lies in one half or in C.
     for (size_t k = 0; k < rows.size(); ++k)
       if (half_[0].scatter[k] < 0 && half_[1].scatter[k] < 0)
         throw std::logic_error("domain Cholesky: the cut is not a separator");
-    split_ = true;
   }
 
   bool Extend(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
@@ -347,28 +353,23 @@ class DomainCholmod final : public SparseCholesky {
   bool Factorize() override {
     if (whole_) return whole_->Factorize();
     SerialLinearAlgebraScope serial;
-    pool_.ParallelFor(2, [&](size_t begin, size_t end) {
+    pool_->ParallelFor(2, [&](size_t begin, size_t end) {
       SerialLinearAlgebraScope serial_here;  // OpenMP's setting is per thread
       for (size_t g = begin; g < end; ++g) half_[g].Factorize(values_.data(), values_.size());
     }, 1);
     if (!half_[0].ok || !half_[1].ok) return false;
-    const int nt = static_cast<int>(top_.size());
-    Eigen::MatrixXd s = half_[0].dd + half_[1].dd;
-    for (const Entry& e : c_entries_) {
-      const double v = values_[e.k];
-      s(std::max(e.i, e.j), std::min(e.i, e.j)) -= v;
-    }
-    if (nt == 0) return true;
-    schur_.compute(s);
+    if (top_.empty()) return true;
+    s_ = half_[0].dd + half_[1].dd;
+    for (const Entry& e : c_entries_) s_(std::max(e.i, e.j), std::min(e.i, e.j)) -= values_[e.k];
+    schur_.compute(s_);
     return schur_.info() == Eigen::Success;
   }
 
   void Solve(const double* b, double* x) override {
     if (whole_) return whole_->Solve(b, x);
     const int nt = static_cast<int>(top_.size());
-    Eigen::VectorXd through[2];  // B_g' A_g^-1 b_g
     SerialLinearAlgebraScope serial;
-    pool_.ParallelFor(2, [&](size_t begin, size_t end) {
+    pool_->ParallelFor(2, [&](size_t begin, size_t end) {
       SerialLinearAlgebraScope serial_here;
       for (size_t g = begin; g < end; ++g) {
         Half& h = half_[g];
@@ -378,26 +379,27 @@ class DomainCholmod final : public SparseCholesky {
         cholmod_solve2(CHOLMOD_L, h.factor, h.rhs, nullptr, &h.forward, nullptr, &h.ws_y, &h.ws_e,
                        &h.common);
         const Eigen::Map<const Eigen::VectorXd> y_top(static_cast<const double*>(h.forward->x) + h.own, nt);
-        through[g] = -(h.d.triangularView<Eigen::Lower>() * y_top);
+        through_[g].noalias() = h.d.triangularView<Eigen::Lower>() * y_top;
       }
     }, 1);
-    Eigen::VectorXd x_top(nt);
-    for (int t = 0; t < nt; ++t) x_top[t] = b[top_[t]] - through[0][t] - through[1][t];
-    if (nt > 0) schur_.solveInPlace(x_top);
-    pool_.ParallelFor(2, [&](size_t begin, size_t end) {
+    // through_[g] = -B_g' A_g^-1 b_g
+    for (int t = 0; t < nt; ++t) x_top_[t] = b[top_[t]] + through_[0][t] + through_[1][t];
+    if (nt > 0) schur_.solveInPlace(x_top_);
+    pool_->ParallelFor(2, [&](size_t begin, size_t end) {
       SerialLinearAlgebraScope serial_here;
       for (size_t g = begin; g < end; ++g) {
         Half& h = half_[g];
         double* r = static_cast<double*>(h.rhs->x);
         std::memcpy(r, h.forward->x, sizeof(double) * h.own);
-        Eigen::Map<Eigen::VectorXd>(r + h.own, nt) = h.d.transpose().triangularView<Eigen::Upper>() * x_top;
+        Eigen::Map<Eigen::VectorXd>(r + h.own, nt).noalias() =
+            h.d.transpose().triangularView<Eigen::Upper>() * x_top_;
         cholmod_solve2(CHOLMOD_Lt, h.factor, h.rhs, nullptr, &h.backward, nullptr, &h.ws_y,
                        &h.ws_e, &h.common);
         const double* z = static_cast<const double*>(h.backward->x);
         for (int t = 0; t < h.own; ++t) x[h.unknowns[t]] = z[t];
       }
     }, 1);
-    for (int t = 0; t < nt; ++t) x[top_[t]] = x_top[t];
+    for (int t = 0; t < nt; ++t) x[top_[t]] = x_top_[t];
   }
 
   long FactorNonZeros() const override {
@@ -424,7 +426,6 @@ class DomainCholmod final : public SparseCholesky {
 
   void Release() {
     whole_.reset();
-    split_ = false;
     for (Half& h : half_) {
       h.Release();
       h.unknowns.clear();
@@ -444,16 +445,16 @@ class DomainCholmod final : public SparseCholesky {
   }
 
   const double min_work_;
-  ThreadPool pool_;
+  std::unique_ptr<ThreadPool> pool_;  // made at the first split
   std::unique_ptr<SparseCholesky> whole_;  // when not split
-  bool split_ = false;
-  int n_ = 0;
   std::vector<int> given_, used_;
   Half half_[2];
   std::vector<int> top_;          // the separator's unknowns, in order
   std::vector<Entry> c_entries_;  // entries of H in C: index, and place in T
   std::vector<double> values_;    // H's values, as the caller writes them
+  Eigen::MatrixXd s_;                   // S, lower triangle
   Eigen::LLT<Eigen::MatrixXd, Eigen::Lower> schur_;
+  Eigen::VectorXd through_[2], x_top_;  // solve workspace
 };
 
 }  // namespace

@@ -67,7 +67,7 @@ int RunCompare(int argc, char** argv) {
   args.Option("threads", &common.threads, "N", "threads for both (0: one per core)");
   args.Option("robust", &robust, "KIND:DELTA", "robust loss on loop closures for both");
   args.Option("linear-solver", &linear_solver, "NAME",
-              "gn: auto (CHOLMOD picks supernodal or simplicial per matrix), supernodal, simplicial, cholmod-auto or eigen");
+              "gn: auto (with 2+ threads a large graph is cut in two halves factorised at once, else CHOLMOD picks supernodal or simplicial per matrix), parallel, supernodal, simplicial, cholmod-auto or eigen");
   args.Option("gn-damping", &damping, "LAMBDA",
               "gn: Levenberg-Marquardt damping (times diag H) the fallback starts from, 1/radius as in Ceres");
   args.Option("sparse", &sparse, "LIB", "ceres: auto, suitesparse, eigen or cxsparse");

@@ -96,7 +96,7 @@ int RunOptimize(int argc, char** argv) {
             "postordering) instead of pre-permuting the Jacobian");
   args.Flag("no-jacobi-scaling", &no_jacobi, "ceres: do not scale columns of the Jacobian");
   args.Option("linear-solver", &linear_solver, "NAME",
-              "gn: auto, supernodal, simplicial, cholmod-auto or eigen");
+              "gn: auto, parallel, supernodal, simplicial, cholmod-auto or eigen");
   args.Flag("gn-no-chord", &gn_no_chord,
             "gn: factorise at every step (no steps with an earlier factorisation)");
   args.Option("gn-damping", &gn_damping, "LAMBDA",

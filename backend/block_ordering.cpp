@@ -30,14 +30,20 @@ BlockPattern MakeBlockPattern(int n, const std::vector<int>& col_ptr, const std:
   return p;
 }
 
-std::vector<int> AmdBlockOrder(const BlockPattern& pattern, cholmod_common* common) {
+cholmod_sparse* BlockGraph(const BlockPattern& pattern, cholmod_common* common) {
   const int nb = pattern.blocks();
   cholmod_sparse* graph =
       cholmod_allocate_sparse(nb, nb, pattern.bi.size(), 1, 1, 1, CHOLMOD_PATTERN, common);
-  if (!graph) return {};
+  if (!graph) return nullptr;
   std::memcpy(graph->p, pattern.bp.data(), sizeof(int) * (nb + 1));
   std::memcpy(graph->i, pattern.bi.data(), sizeof(int) * pattern.bi.size());
-  std::vector<int> order(nb);
+  return graph;
+}
+
+std::vector<int> AmdBlockOrder(const BlockPattern& pattern, cholmod_common* common) {
+  cholmod_sparse* graph = BlockGraph(pattern, common);
+  if (!graph) return {};
+  std::vector<int> order(pattern.blocks());
   const int ok = cholmod_amd(graph, nullptr, 0, order.data(), common);
   cholmod_free_sparse(&graph, common);
   if (!ok) return {};
@@ -159,6 +165,17 @@ cholmod_sparse* LocalPattern(const std::vector<int>& col_ptr, const std::vector<
     }
   std::memset(a->x, 0, sizeof(double) * kept);
   return a;
+}
+
+long SupernodalNonZeros(const cholmod_factor* factor) {
+  long nz = 0;
+  const int* super = static_cast<const int*>(factor->super);
+  const int* pi = static_cast<const int*>(factor->pi);
+  for (size_t s = 0; s < factor->nsuper; ++s) {
+    const long cols = super[s + 1] - super[s], rows = pi[s + 1] - pi[s];
+    nz += cols * rows - cols * (cols - 1) / 2;
+  }
+  return nz;
 }
 
 void ConfigureCholmod(cholmod_common* common) {

@@ -22,6 +22,10 @@ struct BlockPattern {
 BlockPattern MakeBlockPattern(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
                               const std::vector<int>& block_sizes);
 
+// The block graph as a CHOLMOD pattern matrix (upper triangle), for its
+// orderings; null when out of memory. The caller frees it.
+cholmod_sparse* BlockGraph(const BlockPattern& pattern, cholmod_common* common);
+
 // AMD on the block graph; empty when CHOLMOD fails.
 std::vector<int> AmdBlockOrder(const BlockPattern& pattern, cholmod_common* common);
 
@@ -46,6 +50,9 @@ std::vector<int> ExpandBlocks(const std::vector<int>& block_perm, const BlockPat
 cholmod_sparse* LocalPattern(const std::vector<int>& col_ptr, const std::vector<int>& rows,
                              const std::vector<int>& local, int m, bool upper,
                              std::vector<int>* scatter, cholmod_common* common);
+
+// Nonzeros of a supernodal factor's L (each supernode's trapezoid).
+long SupernodalNonZeros(const cholmod_factor* factor);
 
 // cairn's CHOLMOD settings: see the comment in the definition.
 void ConfigureCholmod(cholmod_common* common);

@@ -1,7 +1,9 @@
-// The sparse Cholesky factorisation on two cores: the block elimination
-// tree is cut below its top, the two halves of the graph are factorised at
-// once by two CHOLMOD instances, and the top (a separator: no edge joins
-// the halves but through it) is finished as a small dense matrix.
+// The sparse Cholesky factorisation on two cores: the pose graph is cut at
+// a small separator (METIS's node bisection of the block graph; for an
+// order kept from an earlier analysis, the top of its elimination tree), the
+// two halves are factorised at once by two CHOLMOD instances, and the
+// separator (no edge joins the halves but through it) is finished as a
+// small dense matrix.
 //
 // With the separator's unknowns T ordered last,
 //   H = [A1 0 B1; 0 A2 B2; B1' B2' C],
@@ -154,11 +156,8 @@ Cut PlanCut(const BlockPattern& pattern, const std::vector<int>& post,
 bool BisectionOrder(const BlockPattern& pattern, cholmod_common* common, std::vector<int>* order,
                     std::vector<int>* side) {
   const int nb = pattern.blocks();
-  cholmod_sparse* graph =
-      cholmod_allocate_sparse(nb, nb, pattern.bi.size(), 1, 1, 1, CHOLMOD_PATTERN, common);
+  cholmod_sparse* graph = BlockGraph(pattern, common);
   if (!graph) return false;
-  std::memcpy(graph->p, pattern.bp.data(), sizeof(int) * (nb + 1));
-  std::memcpy(graph->i, pattern.bi.data(), sizeof(int) * pattern.bi.size());
   side->assign(nb, 0);
   order->assign(nb, 0);
   bool ok = cholmod_bisect(graph, nullptr, 0, /*compress=*/1, side->data(), common) >= 0 &&
@@ -192,7 +191,6 @@ Cut CutAtSeparator(const BlockPattern& pattern, const std::vector<int>& post,
   cut.parallel = std::max(load[0], load[1]) + top_size * top_size * top_size;
   return cut;
 }
-
 
 // One half of the graph with the separator after it, and its factor.
 struct Half {
@@ -258,17 +256,7 @@ struct Half {
     dd.selfadjointView<Eigen::Lower>().rankUpdate(d);
   }
 
-  long FactorNonZeros() const {
-    if (!factor || !factor->is_super) return 0;
-    long nz = 0;
-    const int* super = static_cast<const int*>(factor->super);
-    const int* pi = static_cast<const int*>(factor->pi);
-    for (size_t s = 0; s < factor->nsuper; ++s) {
-      const long cols = super[s + 1] - super[s], rows = pi[s + 1] - pi[s];
-      nz += cols * rows - cols * (cols - 1) / 2;
-    }
-    return nz;
-  }
+  long FactorNonZeros() const { return factor && factor->is_super ? SupernodalNonZeros(factor) : 0; }
 };
 
 class DomainCholmod final : public SparseCholesky {

@@ -137,16 +137,7 @@ class Cholmod final : public SparseCholesky {
 
   long FactorNonZeros() const override {
     if (!factor_) return 0;
-    if (factor_->is_super) {
-      long nz = 0;
-      const int* super = static_cast<const int*>(factor_->super);
-      const int* pi = static_cast<const int*>(factor_->pi);
-      for (size_t s = 0; s < factor_->nsuper; ++s) {
-        const long cols = super[s + 1] - super[s], rows = pi[s + 1] - pi[s];
-        nz += cols * rows - cols * (cols - 1) / 2;
-      }
-      return nz;
-    }
+    if (factor_->is_super) return SupernodalNonZeros(factor_);
     long nz = 0;
     const int* cnt = static_cast<const int*>(factor_->nz);
     for (size_t j = 0; j < factor_->n; ++j) nz += cnt[j];

@@ -7,7 +7,6 @@
 #include <stdexcept>
 
 namespace cairn {
-namespace {
 
 std::string JsonString(const std::string& s) {
   std::string out = "\"";
@@ -30,6 +29,8 @@ std::string JsonString(const std::string& s) {
   }
   return out + "\"";
 }
+
+namespace {
 
 // JSON has no NaN or infinity; null keeps the file parseable.
 std::string JsonNumber(double v) {

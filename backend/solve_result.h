@@ -75,6 +75,10 @@ struct SolveResult {
 void WriteReportJson(const SolveResult& result, std::ostream& out,
                      const std::vector<std::pair<std::string, std::string>>& context = {});
 
+// `s` as a JSON string: quoted, with quotes, backslashes and control
+// characters escaped.
+std::string JsonString(const std::string& s);
+
 // The one-line progress format shared by the solvers (no trailing newline).
 std::string FormatIteration(const IterationRecord& record);
 

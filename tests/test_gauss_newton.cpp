@@ -181,6 +181,26 @@ TEST(GaussNewton, EveryLinearSolverAgrees) {
   }
 }
 
+// A graph large enough for the factorisation in two halves at once, solved
+// with it and with one CHOLMOD factorisation: the same steps.
+TEST(GaussNewton, TwoHalvesAtOnceAgreeWithOneFactorisation) {
+  SimulationOptions so;
+  so.poses = 10000;
+  so.nodes_per_lap = 100;
+  const Simulation sim = Simulate(so);
+  PoseGraph split = sim.noisy, whole = sim.noisy;
+  GaussNewtonOptions o = Quiet();
+  o.threads = 2;
+  o.linear_solver = CholeskyKind::kCholmodParallel;
+  const SolveResult a = SolveGaussNewton(split, o);
+  EXPECT_NE(a.linear_solver.find("two halves"), std::string::npos) << a.linear_solver;
+  o.linear_solver = CholeskyKind::kCholmodSupernodal;
+  const SolveResult b = SolveGaussNewton(whole, o);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_NEAR(a.final_chi2 / b.final_chi2, 1.0, 1e-9);
+  ExpectSamePoses(split, whole, 1e-7, 1e-8);
+}
+
 TEST(GaussNewton, ThreadsDoNotChangeTheResult) {
   SimulationOptions so;
   so.poses = 500;

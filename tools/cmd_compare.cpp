@@ -21,10 +21,10 @@ std::string SolverJson(const SolveResult& r) {
   std::snprintf(buf, sizeof buf,
                 "{\"initial_chi2\": %.17g, \"final_chi2\": %.17g, \"iterations\": %d, "
                 "\"time_s\": %.6f, \"setup_time_s\": %.6f, \"linearize_time_s\": %.6f, "
-                "\"linear_solver_time_s\": %.6f, \"termination\": \"%s\"}",
+                "\"linear_solver_time_s\": %.6f, \"termination\": \"%s\", \"linear_solver\": ",
                 r.initial_chi2, r.final_chi2, r.iterations, r.time_s, r.setup_time_s,
                 r.linearize_time_s, r.linear_solver_time_s, r.termination.c_str());
-  return buf;
+  return buf + JsonString(r.linear_solver) + "}";
 }
 
 // Time at which a solver's trace first reached `chi2` (relative 1e-6).

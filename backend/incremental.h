@@ -32,8 +32,9 @@ struct IncrementalOptions {
   CeresOptions ceres;
   GaussNewtonOptions gauss_newton;
   // Gauss-Newton: appending new poses to an old ordering slowly costs fill;
-  // a fresh AMD ordering is computed once the variables have grown by this
-  // fraction since the last one (and whenever the held vertices change).
+  // a fresh ordering (AMD, or METIS and CAMD for two halves) is computed
+  // once the variables have grown by this fraction since the last one (and
+  // whenever the held vertices change).
   double reorder_growth = 0.1;
 };
 

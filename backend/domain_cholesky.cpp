@@ -220,13 +220,35 @@ struct Half {
       if (*v) cholmod_free_dense(v, &common);
   }
 
-  void Analyze() {
+  // CHOLMOD's choice between its methods, for this half: the simplicial one
+  // (kept as LL', so that both read the same way below) on the sparser
+  // halves of 2D graphs, the supernodal one on the rest. Each is given the
+  // triangle it reads without a copy, as in sparse_cholesky.cpp. CHOLMOD
+  // switches to supernodal at 40 flops per nonzero of L; with the coarser
+  // supernodes the break-even is nearer 80 (bench_gauss_newton, halves at
+  // 47 and 60: simplicial 10.3 ms against supernodal 15.4 on the generated
+  // 10,000-pose 2D graph; city10000's at 76 and 85: 20.7 against 20.5;
+  // sphere2500's at 214 and 253: supernodal, far ahead).
+  static constexpr double kSupernodalSwitch = 80;
+  void Analyze(const std::vector<int>& col_ptr, const std::vector<int>& rows,
+               const std::vector<int>& local) {
+    const int size = static_cast<int>(unknowns.size());
     common.method[0].ordering = CHOLMOD_NATURAL;  // already in elimination order
     common.postorder = 0;
-    common.supernodal = CHOLMOD_SUPERNODAL;
+    common.final_ll = 1;
+    common.supernodal = CHOLMOD_AUTO;
+    common.supernodal_switch = kSupernodalSwitch;
+    m = LocalPattern(col_ptr, rows, local, size, /*upper=*/true, &scatter, &common);
     factor = cholmod_analyze(m, &common);
+    if (factor && factor->is_super) {
+      cholmod_free_factor(&factor, &common);
+      cholmod_free_sparse(&m, &common);
+      m = LocalPattern(col_ptr, rows, local, size, /*upper=*/false, &scatter, &common);
+      common.supernodal = CHOLMOD_SUPERNODAL;
+      factor = cholmod_analyze(m, &common);
+    }
     if (!factor) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
-    rhs = cholmod_allocate_dense(m->nrow, 1, m->nrow, CHOLMOD_REAL, &common);
+    rhs = cholmod_allocate_dense(size, 1, size, CHOLMOD_REAL, &common);
   }
 
   void Factorize(const double* values, size_t nnz) {
@@ -235,28 +257,52 @@ struct Half {
       if (scatter[k] >= 0) to[scatter[k]] = values[k];
     ok = cholmod_factorize(m, factor, &common) && common.status == CHOLMOD_OK &&
          factor->minor == factor->n;
+    if (ok && !factor->is_ll)
+      ok = cholmod_change_factor(CHOLMOD_REAL, /*to_ll=*/1, 0, 1, 1, factor, &common);
     if (!ok) return;
-    // D_g: the separator's columns, the last of the supernodal factor.
+    // D_g: the separator's columns, the last of the factor.
     const int nt = static_cast<int>(m->nrow) - own;
     d.setZero(nt, nt);
-    const int* super = static_cast<const int*>(factor->super);
-    const int* pi = static_cast<const int*>(factor->pi);
-    const int* px = static_cast<const int*>(factor->px);
-    const int* ls = static_cast<const int*>(factor->s);
     const double* lx = static_cast<const double*>(factor->x);
-    for (size_t s = 0; s < factor->nsuper; ++s) {
-      if (super[s + 1] <= own) continue;
-      const int rows = pi[s + 1] - pi[s];
-      for (int j = std::max(super[s], own); j < super[s + 1]; ++j) {
-        const double* column = lx + px[s] + static_cast<size_t>(j - super[s]) * rows;
-        for (int r = j - super[s]; r < rows; ++r) d(ls[pi[s] + r] - own, j - own) = column[r];
+    if (factor->is_super) {
+      const int* super = static_cast<const int*>(factor->super);
+      const int* pi = static_cast<const int*>(factor->pi);
+      const int* px = static_cast<const int*>(factor->px);
+      const int* ls = static_cast<const int*>(factor->s);
+      for (size_t s = 0; s < factor->nsuper; ++s) {
+        if (super[s + 1] <= own) continue;
+        const int rows = pi[s + 1] - pi[s];
+        for (int j = std::max(super[s], own); j < super[s + 1]; ++j) {
+          const double* column = lx + px[s] + static_cast<size_t>(j - super[s]) * rows;
+          for (int r = j - super[s]; r < rows; ++r) d(ls[pi[s] + r] - own, j - own) = column[r];
+        }
       }
+    } else {
+      const int* lp = static_cast<const int*>(factor->p);
+      const int* li = static_cast<const int*>(factor->i);
+      const int* lnz = static_cast<const int*>(factor->nz);
+      for (int j = own; j < static_cast<int>(factor->n); ++j)
+        for (int q = lp[j]; q < lp[j] + lnz[j]; ++q) d(li[q] - own, j - own) = lx[q];
     }
     dd.setZero(nt, nt);
     dd.selfadjointView<Eigen::Lower>().rankUpdate(d);
   }
 
-  long FactorNonZeros() const { return factor && factor->is_super ? SupernodalNonZeros(factor) : 0; }
+  // Nonzeros of the half's own columns of L (the separator's are S's).
+  long OwnNonZeros() const {
+    if (!factor) return 0;
+    long nz = 0;
+    if (factor->is_super) {
+      const int* super = static_cast<const int*>(factor->super);
+      const int* pi = static_cast<const int*>(factor->pi);
+      for (size_t s = 0; s < factor->nsuper; ++s)
+        for (int j = super[s]; j < std::min(super[s + 1], own); ++j)
+          nz += pi[s + 1] - pi[s] - (j - super[s]);
+    } else {
+      for (int j = 0; j < own; ++j) nz += static_cast<const int*>(factor->nz)[j];
+    }
+    return nz;
+  }
 };
 
 class DomainCholmod final : public SparseCholesky {
@@ -314,10 +360,8 @@ class DomainCholmod final : public SparseCholesky {
           Half& h = half_[g];
           std::vector<int> local(n, -1);
           for (size_t t = 0; t < h.unknowns.size(); ++t) local[h.unknowns[t]] = static_cast<int>(t);
-          h.m = LocalPattern(col_ptr, rows, local, static_cast<int>(h.unknowns.size()),
-                             /*upper=*/false, &h.scatter, &h.common);
           SerialLinearAlgebraScope serial;
-          h.Analyze();
+          h.Analyze(col_ptr, rows, local);
         } catch (...) {
           failed[g] = std::current_exception();
         }
@@ -393,12 +437,16 @@ class DomainCholmod final : public SparseCholesky {
   long FactorNonZeros() const override {
     if (whole_) return whole_->FactorNonZeros();
     const long nt = static_cast<long>(top_.size());
-    return half_[0].FactorNonZeros() + half_[1].FactorNonZeros() - nt * (nt + 1) / 2;
+    return half_[0].OwnNonZeros() + half_[1].OwnNonZeros() + nt * (nt + 1) / 2;
   }
-  bool IsSupernodal() const override { return whole_ ? whole_->IsSupernodal() : true; }
+  bool IsSupernodal() const override {
+    return whole_ ? whole_->IsSupernodal() : half_[0].factor && half_[0].factor->is_super;
+  }
   std::string Method() const override {
     if (whole_) return whole_->Method();
-    return "two halves at once, " + std::to_string(top_.size()) + " separator unknowns";
+    auto method = [](const Half& h) { return h.factor->is_super ? "supernodal" : "simplicial"; };
+    return std::string("two halves at once (") + method(half_[0]) + ", " + method(half_[1]) +
+           "), " + std::to_string(top_.size()) + " separator unknowns";
   }
 
   void SetBlockOrdering(const std::vector<int>& block_perm) override { given_ = block_perm; }

@@ -386,20 +386,43 @@ BlockMatrix Grid(int side) {
   return m;
 }
 
-TEST(SparseCholesky, TwoHalvesAtOnceSolveExactly) {
-  const BlockMatrix m = Grid(24);
+// A grid with its diagonals and couplings two apart: fill enough for the
+// supernodal method in both halves.
+BlockMatrix DenseGrid(int side) {
+  BlockMatrix m = Grid(side);
+  for (int r = 0; r < side; ++r)
+    for (int c = 0; c < side; ++c) {
+      const int b = r * side + c;
+      if (c + 1 < side && r + 1 < side) m.couplings.push_back({b, b + side + 1});
+      if (c + 2 < side) m.couplings.push_back({b, b + 2});
+      if (r + 2 < side) m.couplings.push_back({b, b + 2 * side});
+    }
+  return m;
+}
+
+class TwoHalves : public ::testing::TestWithParam<bool> {};
+
+TEST_P(TwoHalves, SolveExactly) {
+  const bool dense = GetParam();
+  const BlockMatrix m = dense ? DenseGrid(24) : Grid(24);
   std::vector<int> col_ptr, rows;
   m.Pattern(&col_ptr, &rows);
   const std::vector<int> sizes(m.blocks, 3);
   auto chol = CreateDomainCholesky(/*min_work=*/0);
   chol->Analyze(3 * m.blocks, col_ptr, rows, sizes);
   ASSERT_NE(chol->Method().find("two halves"), std::string::npos) << chol->Method();
+  // CHOLMOD's choice for the halves: the sparse grid's simplicial, the
+  // denser one's supernodal; both ways of reading the separator's block.
+  EXPECT_NE(chol->Method().find(dense ? "(supernodal, supernodal)" : "(simplicial, simplicial)"),
+            std::string::npos) << chol->Method();
   const Eigen::MatrixXd a = m.Dense(5);
   const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(a.rows(), -2, 1);
   const Eigen::VectorXd expected = a.ldlt().solve(b);
   EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - expected).norm(), 1e-10 * expected.norm());
-  // Its factor has the fill of one factorisation in the same order.
-  auto whole = SparseCholesky::Create(CholeskyKind::kCholmodSupernodal);
+  // Its factor has the fill of one factorisation in the same order (the
+  // separator's block counted dense).
+  auto whole = SparseCholesky::Create(dense ? CholeskyKind::kCholmodSupernodal
+                                            : CholeskyKind::kCholmodSimplicial);
   whole->SetBlockOrdering(chol->BlockOrdering());
   whole->Analyze(3 * m.blocks, col_ptr, rows, sizes);
   SolveWith(*whole, a, col_ptr, rows, b);
@@ -416,8 +439,8 @@ TEST(SparseCholesky, TwoHalvesAtOnceSolveExactly) {
   EXPECT_LT((SolveWith(*given, a, col_ptr, rows, b) - expected).norm(), 1e-10 * expected.norm());
 }
 
-TEST(SparseCholesky, TwoHalvesRefuseAMatrixThatIsNotPositiveDefinite) {
-  const BlockMatrix m = Grid(20);
+TEST_P(TwoHalves, RefuseAMatrixThatIsNotPositiveDefinite) {
+  const BlockMatrix m = GetParam() ? DenseGrid(20) : Grid(20);
   std::vector<int> col_ptr, rows;
   m.Pattern(&col_ptr, &rows);
   auto chol = CreateDomainCholesky(0);
@@ -437,6 +460,9 @@ TEST(SparseCholesky, TwoHalvesRefuseAMatrixThatIsNotPositiveDefinite) {
   const Eigen::VectorXd b = Eigen::VectorXd::Ones(a.rows());
   EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - a.ldlt().solve(b)).norm(), 1e-9);
 }
+
+INSTANTIATE_TEST_SUITE_P(SparseCholesky, TwoHalves, ::testing::Bool(),
+                         [](const auto& info) { return info.param ? "Supernodal" : "Simplicial"; });
 
 TEST(SparseCholesky, TwoHalvesLeaveASmallGraphToOneFactorisation) {
   BlockMatrix m = Grid(6);

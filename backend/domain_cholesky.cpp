@@ -443,7 +443,7 @@ class DomainCholmod final : public SparseCholesky {
     return whole_ ? whole_->IsSupernodal() : half_[0].factor && half_[0].factor->is_super;
   }
   std::string Method() const override {
-    if (whole_) return whole_->Method();
+    if (whole_) return "not split, " + whole_->Method();
     auto method = [](const Half& h) { return h.factor->is_super ? "supernodal" : "simplicial"; };
     return std::string("two halves at once (") + method(half_[0]) + ", " + method(half_[1]) +
            "), " + std::to_string(top_.size()) + " separator unknowns";

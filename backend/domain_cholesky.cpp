@@ -200,7 +200,9 @@ struct Half {
   cholmod_dense *rhs = nullptr, *forward = nullptr, *backward = nullptr, *ws_y = nullptr,
                 *ws_e = nullptr;
   std::vector<int> unknowns;  // unknown of H at each row of M_g: the half's, then T's
-  std::vector<int> scatter;   // entry k of H goes to scatter[k] of M_g, or nowhere (-1)
+  // During Analyze: entry k of H goes to scatter[k] of M_g, or nowhere (-1).
+  std::vector<int> scatter;
+  std::vector<int> from, to;  // the entries that go somewhere: value from[t] of H to to[t]
   int own = 0;                // the half's own unknowns (T's follow)
   Eigen::MatrixXd d, dd;      // D_g, and D_g D_g' (lower)
   bool ok = false;
@@ -249,12 +251,13 @@ struct Half {
     }
     if (!factor) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
     rhs = cholmod_allocate_dense(size, 1, size, CHOLMOD_REAL, &common);
+    for (size_t k = 0; k < scatter.size(); ++k)
+      if (scatter[k] >= 0) from.push_back(static_cast<int>(k)), to.push_back(scatter[k]);
   }
 
-  void Factorize(const double* values, size_t nnz) {
-    double* to = static_cast<double*>(m->x);
-    for (size_t k = 0; k < nnz; ++k)
-      if (scatter[k] >= 0) to[scatter[k]] = values[k];
+  void Factorize(const double* values) {
+    double* mx = static_cast<double*>(m->x);
+    for (size_t t = 0; t < from.size(); ++t) mx[to[t]] = values[from[t]];
     ok = cholmod_factorize(m, factor, &common) && common.status == CHOLMOD_OK &&
          factor->minor == factor->n;
     if (ok && !factor->is_ll)
@@ -372,6 +375,7 @@ class DomainCholmod final : public SparseCholesky {
     for (size_t k = 0; k < rows.size(); ++k)
       if (half_[0].scatter[k] < 0 && half_[1].scatter[k] < 0)
         throw std::logic_error("domain Cholesky: the cut is not a separator");
+    for (Half& h : half_) std::vector<int>().swap(h.scatter);  // from and to say it now
   }
 
   bool Extend(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
@@ -387,7 +391,7 @@ class DomainCholmod final : public SparseCholesky {
     SerialLinearAlgebraScope serial;
     pool_->ParallelFor(2, [&](size_t begin, size_t end) {
       SerialLinearAlgebraScope serial_here;  // OpenMP's setting is per thread
-      for (size_t g = begin; g < end; ++g) half_[g].Factorize(values_.data(), values_.size());
+      for (size_t g = begin; g < end; ++g) half_[g].Factorize(values_.data());
     }, 1);
     if (!half_[0].ok || !half_[1].ok) return false;
     if (top_.empty()) return true;
@@ -410,7 +414,8 @@ class DomainCholmod final : public SparseCholesky {
         std::fill(r + h.own, r + h.own + nt, 0.0);
         cholmod_solve2(CHOLMOD_L, h.factor, h.rhs, nullptr, &h.forward, nullptr, &h.ws_y, &h.ws_e,
                        &h.common);
-        const Eigen::Map<const Eigen::VectorXd> y_top(static_cast<const double*>(h.forward->x) + h.own, nt);
+        const Eigen::Map<const Eigen::VectorXd> y_top(
+            static_cast<const double*>(h.forward->x) + h.own, nt);
         through_[g].noalias() = h.d.triangularView<Eigen::Lower>() * y_top;
       }
     }, 1);
@@ -466,6 +471,8 @@ class DomainCholmod final : public SparseCholesky {
       h.Release();
       h.unknowns.clear();
       h.scatter.clear();
+      h.from.clear();
+      h.to.clear();
     }
     top_.clear();
     c_entries_.clear();

@@ -182,7 +182,8 @@ class Cholmod final : public SparseCholesky {
     std::vector<int> inverse(n);
     for (int k = 0; k < n; ++k) inverse[perm_[k]] = k;
     // The simplicial method reads the upper triangle, the supernodal the lower.
-    permuted_ = LocalPattern(col_ptr, rows, inverse, n, /*upper=*/!supernodal_, &scatter_, &common_);
+    permuted_ =
+        LocalPattern(col_ptr, rows, inverse, n, /*upper=*/!supernodal_, &scatter_, &common_);
     // Already in the fill-reducing order (postordered): analysed as is.
     common_.method[0].ordering = CHOLMOD_NATURAL;
     common_.postorder = 0;
@@ -202,7 +203,8 @@ class Cholmod final : public SparseCholesky {
     if (block_sizes.size() < 2) return {};
     const BlockPattern pattern = MakeBlockPattern(n, col_ptr, rows, block_sizes);
     std::vector<int> order = given_;
-    if (static_cast<int>(order.size()) != pattern.blocks()) order = AmdBlockOrder(pattern, &common_);
+    if (static_cast<int>(order.size()) != pattern.blocks())
+      order = AmdBlockOrder(pattern, &common_);
     if (order.empty()) return {};
     used_ = Postordered(order, pattern);
     return ExpandBlocks(used_, pattern);

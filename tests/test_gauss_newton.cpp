@@ -446,14 +446,17 @@ TEST_P(TwoHalves, RefuseAMatrixThatIsNotPositiveDefinite) {
   auto chol = CreateDomainCholesky(0);
   chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
   ASSERT_NE(chol->Method().find("two halves"), std::string::npos);
-  // Indefinite in each block in turn: in one half, the other, or the separator.
-  for (int block = 0; block < m.blocks; block += 7) {
-    Eigen::MatrixXd a = m.Dense(7);
-    a(3 * block, 3 * block) = -1;
-    double* v = chol->values();
-    for (int j = 0; j + 1 < static_cast<int>(col_ptr.size()); ++j)
-      for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) v[k] = a(rows[k], j);
+  // Indefinite in each block in turn: in either half or in the separator.
+  const Eigen::MatrixXd positive = m.Dense(7);
+  double* v = chol->values();
+  for (int j = 0; j + 1 < static_cast<int>(col_ptr.size()); ++j)
+    for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) v[k] = positive(rows[k], j);
+  for (int block = 0; block < m.blocks; ++block) {
+    const int diagonal = col_ptr[3 * block + 1] - 1;  // rows sorted: the last of its column
+    const double kept = v[diagonal];
+    v[diagonal] = -1;
     EXPECT_FALSE(chol->Factorize()) << "block " << block;
+    v[diagonal] = kept;
   }
   // And positive definite again afterwards.
   const Eigen::MatrixXd a = m.Dense(8);

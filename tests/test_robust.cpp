@@ -37,6 +37,17 @@ Options Tight() {
 CeresOptions QuietCeres() { return Tight<CeresOptions>(); }
 GaussNewtonOptions QuietGn() { return Tight<GaussNewtonOptions>(); }
 
+// The simulator's graph: `dim` dimensions, `poses` poses, `outliers` wrong
+// loop closures among the loop closures.
+Simulation Simulated(int dim, int poses, uint64_t seed, int outliers = 0) {
+  SimulationOptions so;
+  so.dimension = dim;
+  so.poses = poses;
+  so.seed = seed;
+  so.outliers = outliers;
+  return Simulate(so);
+}
+
 double RmsPositionDifference(const PoseGraph& a, const PoseGraph& b) {
   double sum = 0;
   for (size_t i = 0; i < a.vertices().size(); ++i)
@@ -87,12 +98,7 @@ TEST(Dcs, ParsesAndPrints) {
 // curvature correction) minimise the same robust cost: same optimum.
 TEST(RobustKernels, GaussNewtonAndCeresAgreeWithEveryKernel) {
   for (int dim : {2, 3}) {
-    SimulationOptions so;
-    so.dimension = dim;
-    so.poses = dim == 2 ? 300 : 250;
-    so.outliers = 5;
-    so.seed = 5;
-    const Simulation sim = Simulate(so);
+    const Simulation sim = Simulated(dim, dim == 2 ? 300 : 250, 5, 5);
     for (const char* kernel : {"huber:1", "cauchy:1", "dcs:1"}) {
       PoseGraph by_ceres = sim.noisy, by_gn = sim.noisy;
       CeresOptions co = QuietCeres();
@@ -109,11 +115,7 @@ TEST(RobustKernels, GaussNewtonAndCeresAgreeWithEveryKernel) {
 }
 
 TEST(RobustKernels, DcsShrugsOffWrongLoopClosures) {
-  SimulationOptions so;
-  so.poses = 300;
-  so.outliers = 10;
-  so.seed = 3;
-  const Simulation sim = Simulate(so);
+  const Simulation sim = Simulated(2, 300, 3, 10);
   PoseGraph plain = sim.noisy, dcs = sim.noisy;
   SolveWithCeres(plain, QuietCeres());
   CeresOptions o = QuietCeres();
@@ -187,11 +189,7 @@ TEST(Divergence, NonFiniteStartIsRefusedNamingTheVertex) {
 }
 
 TEST(Divergence, SolversNeverEndWorseThanTheyStart) {
-  SimulationOptions so;
-  so.poses = 200;
-  so.outliers = 20;
-  so.seed = 9;
-  const Simulation sim = Simulate(so);
+  const Simulation sim = Simulated(2, 200, 9, 20);
   for (bool gn : {false, true}) {
     PoseGraph g = sim.noisy;
     const double start = Chi2(g);
@@ -206,10 +204,7 @@ TEST(Divergence, SolversNeverEndWorseThanTheyStart) {
 }
 
 TEST(Corrupt, AddsLoopClosuresWithTheMedianInformation) {
-  SimulationOptions so;
-  so.poses = 300;
-  so.seed = 4;
-  PoseGraph g = Simulate(so).noisy;
+  PoseGraph g = Simulated(2, 300, 4).noisy;
   const size_t before = g.edges().size();
   const size_t closures = g.CountEdges(EdgeKind::kLoopClosure);
   PoseGraph again = g;
@@ -252,11 +247,7 @@ TEST(Gnc, ChiSquaredQuantilesInTheFarTail) {
 // re-solve, and see chi2 fall.
 TEST(Leverage, PredictsTheFallOfChi2WhenALoopClosureIsDeleted) {
   for (int dim : {2, 3}) {
-    SimulationOptions so;
-    so.dimension = dim;
-    so.poses = dim == 2 ? 200 : 150;
-    so.seed = 21;
-    PoseGraph g = Simulate(so).noisy;
+    PoseGraph g = Simulated(dim, dim == 2 ? 200 : 150, 21).noisy;
     SolveWithCeres(g, QuietCeres());
     std::vector<size_t> closures;
     for (size_t k = 0; k < g.edges().size(); ++k)
@@ -284,11 +275,7 @@ TEST(Leverage, PredictsTheFallOfChi2WhenALoopClosureIsDeleted) {
 
 TEST(Leverage, InnovationPredictsTheRiseOfChi2WhenALoopClosureIsAdded) {
   for (int dim : {2, 3}) {
-    SimulationOptions so;
-    so.dimension = dim;
-    so.poses = dim == 2 ? 200 : 150;
-    so.seed = 23;
-    const PoseGraph full = Simulate(so).noisy;
+    const PoseGraph full = Simulated(dim, dim == 2 ? 200 : 150, 23).noisy;
     std::vector<size_t> closures;
     for (size_t k = 0; k < full.edges().size(); ++k)
       if (full.edges()[k].kind == EdgeKind::kLoopClosure) closures.push_back(k);
@@ -322,10 +309,7 @@ TEST(Leverage, InnovationPredictsTheRiseOfChi2WhenALoopClosureIsAdded) {
 }
 
 TEST(Leverage, AWrongLoopClosureTheEstimateBentToFitStandsOut) {
-  SimulationOptions so;
-  so.poses = 300;
-  so.seed = 5;
-  PoseGraph g = Simulate(so).noisy;
+  PoseGraph g = Simulated(2, 300, 5).noisy;
   const size_t good = g.edges().size();
   AddWrongLoopClosures(g, 1, 9);
   // Ten times as certain as the median loop closure: least squares bends
@@ -399,11 +383,7 @@ TEST(Gnc, VerificationRejectsAWrongLoopClosureThatGncKept) {
 
 TEST(Gnc, LocalSupportConfirmsRunsOfGoodLoopClosuresOnly) {
   for (int dim : {2, 3}) {
-    SimulationOptions so;
-    so.dimension = dim;
-    so.poses = dim == 2 ? 600 : 400;
-    so.seed = 17;
-    PoseGraph g = Simulate(so).noisy;
+    PoseGraph g = Simulated(dim, dim == 2 ? 600 : 400, 17).noisy;
     const size_t good = g.CountEdges(EdgeKind::kLoopClosure);
     const auto added = AddWrongLoopClosures(g, static_cast<int>(good / 2), 4);
     const std::set<VertexPair> wrong(added.begin(), added.end());
@@ -423,10 +403,7 @@ TEST(Gnc, LocalSupportConfirmsRunsOfGoodLoopClosuresOnly) {
 }
 
 TEST(Gnc, RejectsHalfAsManyWrongAsGoodFromOdometryWithEitherSolver) {
-  SimulationOptions so;
-  so.poses = 500;
-  so.seed = 31;
-  const Simulation sim = Simulate(so);
+  const Simulation sim = Simulated(2, 500, 31);
   PoseGraph reference = sim.noisy;
   SolveWithCeres(reference, QuietCeres());
   PoseGraph corrupted = sim.noisy;  // its estimate: chained odometry
@@ -455,11 +432,7 @@ TEST(Gnc, RejectsHalfAsManyWrongAsGoodFromOdometryWithEitherSolver) {
 
 TEST(Gnc, RejectsTheWrongLoopClosuresWithEitherSolver) {
   for (int dim : {2, 3}) {
-    SimulationOptions so;
-    so.dimension = dim;
-    so.poses = dim == 2 ? 400 : 250;
-    so.seed = 12;
-    const Simulation sim = Simulate(so);
+    const Simulation sim = Simulated(dim, dim == 2 ? 400 : 250, 12);
     PoseGraph reference = sim.noisy;
     SolveWithCeres(reference, QuietCeres());
     PoseGraph corrupted = sim.noisy;
@@ -485,10 +458,7 @@ TEST(Cli, CorruptThenOptimizeRejectingOutliers) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::path(cairn::testing::TempDir()) / ("cairn_robust_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  SimulationOptions so;
-  so.poses = 300;
-  so.seed = 8;
-  WriteG2o(Simulate(so).noisy, (dir / "clean.g2o").string());
+  WriteG2o(Simulated(2, 300, 8).noisy, (dir / "clean.g2o").string());
   int status = 0;
   const std::string tool = CAIRN_TOOL;
   testing::RunCommand(tool + " corrupt " + (dir / "clean.g2o").string() + " -o " +

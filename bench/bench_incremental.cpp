@@ -12,10 +12,10 @@
 #include <limits>
 #include <memory>
 
-#include "backend/ceres_solver.h"
-#include "backend/graph_gauss_newton.h"
-#include "backend/incremental.h"
-#include "backend/simulate.h"
+#include "cairn/solvers/ceres_solver.h"
+#include "cairn/solvers/graph_gauss_newton.h"
+#include "cairn/solvers/incremental.h"
+#include "cairn/graph/simulate.h"
 
 namespace cairn {
 namespace {

@@ -3,8 +3,7 @@
 #include <cmath>  // M_PI
 #include <cstdio>
 
-#include "backend/ceres_solver.h"
-#include "backend/pose_graph.h"
+#include <cairn/cairn.h>
 
 int main() {
   cairn::PoseGraph graph(2);

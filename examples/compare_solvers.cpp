@@ -6,10 +6,7 @@
 #include <cstdio>
 #include <string>
 
-#include "backend/ceres_solver.h"
-#include "backend/graph_gauss_newton.h"
-#include "backend/graph_io.h"
-#include "backend/simulate.h"
+#include <cairn/cairn.h>
 
 int main(int argc, char** argv) {
   std::string path = argc > 1 ? argv[1] : "compare_solvers_input.g2o";

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <cstdio>
 
-#include "backend/covariance.h"
-#include "backend/incremental.h"
-#include "backend/simulate.h"
+#include <cairn/solvers/covariance.h>
+#include <cairn/solvers/incremental.h>
+#include <cairn/graph/simulate.h>
 
 int main() {
   // A simulated run stands in for the robot's front-end.

@@ -1,9 +1,9 @@
 // One translation unit per factor: autodiff instantiation is slow to compile.
-#include "factors/odometry_calibration.h"
+#include "cairn/factors/odometry_calibration.h"
 
 #include <ceres/autodiff_cost_function.h>
 
-#include "factors/pose_math.h"
+#include "cairn/factors/pose_math.h"
 
 namespace cairn::factors {
 

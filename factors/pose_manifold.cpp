@@ -1,11 +1,11 @@
-#include "factors/pose_manifold.h"
+#include "cairn/factors/pose_manifold.h"
 
 #include <ceres/autodiff_manifold.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "factors/pose_math.h"
+#include "cairn/factors/pose_math.h"
 
 namespace cairn::factors {
 namespace {

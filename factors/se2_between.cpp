@@ -1,7 +1,7 @@
 // One translation unit per factor: autodiff instantiation is slow to compile.
 #include <ceres/autodiff_cost_function.h>
 
-#include "factors/se2_factors.h"
+#include "cairn/factors/se2_factors.h"
 
 namespace cairn::factors {
 

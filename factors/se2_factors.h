@@ -7,7 +7,7 @@
 
 #include <Eigen/Core>
 
-#include "factors/pose_math.h"
+#include "cairn/factors/pose_math.h"
 
 namespace cairn::factors {
 

@@ -9,7 +9,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-#include "factors/pose_math.h"
+#include "cairn/factors/pose_math.h"
 
 namespace cairn::factors {
 

@@ -1,6 +1,6 @@
 #include <ceres/autodiff_cost_function.h>
 
-#include "factors/se3_factors.h"
+#include "cairn/factors/se3_factors.h"
 
 namespace cairn::factors {
 

@@ -1,6 +1,6 @@
-#include "frontend/calibration_log.h"
+#include "cairn/frontend/calibration_log.h"
 
-#include "frontend/carmen_log.h"
+#include "cairn/frontend/carmen_log.h"
 
 namespace cairn {
 

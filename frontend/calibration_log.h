@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "backend/odometry_calibration.h"
+#include "cairn/calibration/odometry_calibration.h"
 
 namespace cairn {
 

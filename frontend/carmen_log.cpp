@@ -1,4 +1,4 @@
-#include "frontend/carmen_log.h"
+#include "cairn/frontend/carmen_log.h"
 
 #include <zlib.h>
 
@@ -10,7 +10,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "backend/graph_io.h"
+#include "cairn/graph/graph_io.h"
 
 namespace cairn::frontend {
 namespace {

@@ -1,4 +1,4 @@
-#include "frontend/image_io.h"
+#include "cairn/frontend/image_io.h"
 
 #include <zlib.h>
 

@@ -1,4 +1,4 @@
-#include "frontend/mapper.h"
+#include "cairn/frontend/mapper.h"
 
 #include <algorithm>
 #include <chrono>

@@ -9,11 +9,11 @@
 #include <string>
 #include <vector>
 
-#include "backend/pose_graph.h"
-#include "frontend/carmen_log.h"
-#include "frontend/occupancy_grid.h"
-#include "frontend/optimize.h"
-#include "frontend/scan_matcher.h"
+#include "cairn/graph/pose_graph.h"
+#include "cairn/frontend/carmen_log.h"
+#include "cairn/frontend/occupancy_grid.h"
+#include "cairn/frontend/optimize.h"
+#include "cairn/frontend/scan_matcher.h"
 
 namespace cairn::frontend {
 

@@ -1,4 +1,4 @@
-#include "frontend/occupancy_grid.h"
+#include "cairn/frontend/occupancy_grid.h"
 
 #include <algorithm>
 #include <cmath>

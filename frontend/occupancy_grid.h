@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "backend/geometry.h"
-#include "frontend/image_io.h"
+#include "cairn/graph/geometry.h"
+#include "cairn/frontend/image_io.h"
 
 namespace cairn::frontend {
 

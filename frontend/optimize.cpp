@@ -1,9 +1,9 @@
-#include "frontend/optimize.h"
+#include "cairn/frontend/optimize.h"
 
 #include <stdexcept>
 
-#include "backend/ceres_solver.h"
-#include "backend/graph_gauss_newton.h"
+#include "cairn/solvers/ceres_solver.h"
+#include "cairn/solvers/graph_gauss_newton.h"
 
 namespace cairn::frontend {
 

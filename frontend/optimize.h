@@ -1,11 +1,11 @@
 // Pose-graph optimisation for the front-end, behind one call on the shared
-// back-end (backend/ceres_solver.h, backend/graph_gauss_newton.h). Loop
+// back-end (backend/solvers/ceres_solver.h, backend/solvers/graph_gauss_newton.h). Loop
 // closures get a robust loss; odometry edges do not.
 #pragma once
 
 #include <string>
 
-#include "backend/pose_graph.h"
+#include "cairn/graph/pose_graph.h"
 
 namespace cairn::frontend {
 

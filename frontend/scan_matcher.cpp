@@ -1,4 +1,4 @@
-#include "frontend/scan_matcher.h"
+#include "cairn/frontend/scan_matcher.h"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>

@@ -6,8 +6,8 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "backend/geometry.h"
-#include "frontend/carmen_log.h"
+#include "cairn/graph/geometry.h"
+#include "cairn/frontend/carmen_log.h"
 
 namespace cairn::frontend {
 

@@ -1,4 +1,4 @@
-#include "frontend/svg.h"
+#include "cairn/frontend/svg.h"
 
 #include <algorithm>
 #include <sstream>

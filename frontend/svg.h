@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "backend/geometry.h"
+#include "cairn/graph/geometry.h"
 
 namespace cairn::frontend {
 

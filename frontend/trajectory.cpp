@@ -1,4 +1,4 @@
-#include "frontend/trajectory.h"
+#include "cairn/frontend/trajectory.h"
 
 #include <Eigen/SVD>
 #include <algorithm>
@@ -10,8 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "backend/graph_io.h"
-#include "frontend/carmen_log.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/frontend/carmen_log.h"
 
 namespace cairn::frontend {
 

@@ -8,8 +8,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "backend/graph_io.h"
-#include "frontend/carmen_log.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/frontend/carmen_log.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const std::string path = "/tmp/cairn_fuzz_carmen_" + std::to_string(getpid()) + ".log";

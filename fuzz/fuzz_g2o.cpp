@@ -6,7 +6,7 @@
 #include <sstream>
 #include <string>
 
-#include "backend/graph_io.h"
+#include "cairn/graph/graph_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   // "VERTEX_SE2" first keeps the fuzzer in the g2o branch of the reader.

@@ -6,7 +6,7 @@
 #include <sstream>
 #include <string>
 
-#include "backend/graph_io.h"
+#include "cairn/graph/graph_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string body(reinterpret_cast<const char*>(data), size);

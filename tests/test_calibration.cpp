@@ -9,9 +9,9 @@
 #include <random>
 #include <sstream>
 
-#include "backend/graph_io.h"
-#include "backend/odometry_calibration.h"
-#include "frontend/calibration_log.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/calibration/odometry_calibration.h"
+#include "cairn/frontend/calibration_log.h"
 #include "test_util.h"
 
 namespace cairn {

@@ -9,12 +9,12 @@
 #include <regex>
 #include <sstream>
 
-#include "backend/ceres_solver.h"
-#include "backend/chi2.h"
-#include "backend/graph_io.h"
-#include "backend/pose_difference.h"
-#include "backend/simulate.h"
-#include "backend/solve_result.h"
+#include "cairn/solvers/ceres_solver.h"
+#include "cairn/graph/chi2.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/graph/pose_difference.h"
+#include "cairn/graph/simulate.h"
+#include "cairn/solvers/solve_result.h"
 #include "test_util.h"
 
 namespace cairn {

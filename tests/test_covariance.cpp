@@ -9,10 +9,10 @@
 #include <fstream>
 #include <sstream>
 
-#include "backend/covariance.h"
-#include "backend/graph_gauss_newton.h"
-#include "backend/graph_io.h"
-#include "backend/simulate.h"
+#include "cairn/solvers/covariance.h"
+#include "cairn/solvers/graph_gauss_newton.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/graph/simulate.h"
 #include "test_util.h"
 
 namespace cairn {

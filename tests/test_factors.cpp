@@ -9,13 +9,13 @@
 #include <random>
 #include <vector>
 
-#include "backend/ceres_solver.h"
-#include "backend/chi2.h"
-#include "backend/geometry.h"
-#include "backend/pose_graph.h"
-#include "factors/pose_manifold.h"
-#include "factors/se2_factors.h"
-#include "factors/se3_factors.h"
+#include "cairn/solvers/ceres_solver.h"
+#include "cairn/graph/chi2.h"
+#include "cairn/graph/geometry.h"
+#include "cairn/graph/pose_graph.h"
+#include "cairn/factors/pose_manifold.h"
+#include "cairn/factors/se2_factors.h"
+#include "cairn/factors/se3_factors.h"
 #include "test_util.h"
 
 namespace cairn {

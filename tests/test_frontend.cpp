@@ -10,15 +10,15 @@
 #include <fstream>
 #include <sstream>
 
-#include "backend/graph_io.h"
+#include "cairn/graph/graph_io.h"
 #include "test_util.h"
-#include "frontend/carmen_log.h"
-#include "frontend/image_io.h"
-#include "frontend/mapper.h"
-#include "frontend/occupancy_grid.h"
-#include "frontend/optimize.h"
-#include "frontend/scan_matcher.h"
-#include "frontend/trajectory.h"
+#include "cairn/frontend/carmen_log.h"
+#include "cairn/frontend/image_io.h"
+#include "cairn/frontend/mapper.h"
+#include "cairn/frontend/occupancy_grid.h"
+#include "cairn/frontend/optimize.h"
+#include "cairn/frontend/scan_matcher.h"
+#include "cairn/frontend/trajectory.h"
 
 namespace cairn::frontend {
 namespace {

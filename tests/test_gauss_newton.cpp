@@ -11,14 +11,14 @@
 #include <cstdlib>
 #include <random>
 
-#include "backend/ceres_solver.h"
-#include "backend/chi2.h"
-#include "backend/domain_cholesky.h"
-#include "backend/graph_gauss_newton.h"
-#include "backend/pose_difference.h"
-#include "backend/serial_scope.h"
-#include "backend/simulate.h"
-#include "backend/sparse_cholesky.h"
+#include "cairn/solvers/ceres_solver.h"
+#include "cairn/graph/chi2.h"
+#include "cairn/linear/domain_cholesky.h"
+#include "cairn/solvers/graph_gauss_newton.h"
+#include "cairn/graph/pose_difference.h"
+#include "cairn/linear/serial_scope.h"
+#include "cairn/graph/simulate.h"
+#include "cairn/linear/sparse_cholesky.h"
 
 namespace cairn {
 namespace {
@@ -166,8 +166,8 @@ TEST(GaussNewton, EveryLinearSolverAgrees) {
   const Simulation sim = Simulate(so);
   std::vector<PoseGraph> results;
   std::vector<double> chi2;
-  for (CholeskyKind kind : {CholeskyKind::kCholmodSupernodal, CholeskyKind::kCholmodSimplicial,
-                            CholeskyKind::kCholmodAuto, CholeskyKind::kCholmodParallel,
+  for (CholeskyKind kind : {CholeskyKind::kSupernodal, CholeskyKind::kSimplicial,
+                            CholeskyKind::kSupernodalOrSimplicial, CholeskyKind::kTwoHalves,
                             CholeskyKind::kEigenLDLT}) {
     PoseGraph g = sim.noisy;
     GaussNewtonOptions o = Quiet();
@@ -191,10 +191,10 @@ TEST(GaussNewton, TwoHalvesAtOnceAgreeWithOneFactorisation) {
   PoseGraph split = sim.noisy, whole = sim.noisy;
   GaussNewtonOptions o = Quiet();
   o.threads = 2;
-  o.linear_solver = CholeskyKind::kCholmodParallel;
+  o.linear_solver = CholeskyKind::kTwoHalves;
   const SolveResult a = SolveGaussNewton(split, o);
   EXPECT_NE(a.linear_solver.find("two halves"), std::string::npos) << a.linear_solver;
-  o.linear_solver = CholeskyKind::kCholmodSupernodal;
+  o.linear_solver = CholeskyKind::kSupernodal;
   const SolveResult b = SolveGaussNewton(whole, o);
   EXPECT_EQ(a.iterations, b.iterations);
   EXPECT_NEAR(a.final_chi2 / b.final_chi2, 1.0, 1e-9);
@@ -313,8 +313,8 @@ Eigen::VectorXd SolveWith(SparseCholesky& chol, const Eigen::MatrixXd& a,
 }
 
 TEST(SparseCholesky, ExtendKeepsTheOrderAndSolvesTheGrownMatrix) {
-  for (CholeskyKind kind : {CholeskyKind::kCholmodSupernodal, CholeskyKind::kCholmodSimplicial,
-                            CholeskyKind::kCholmodAuto}) {
+  for (CholeskyKind kind : {CholeskyKind::kSupernodal, CholeskyKind::kSimplicial,
+                            CholeskyKind::kSupernodalOrSimplicial}) {
     BlockMatrix m;
     m.blocks = 40;
     for (int i = 0; i + 1 < m.blocks; ++i) m.couplings.push_back({i, i + 1});
@@ -421,8 +421,8 @@ TEST_P(TwoHalves, SolveExactly) {
   EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - expected).norm(), 1e-10 * expected.norm());
   // Its factor has the fill of one factorisation in the same order (the
   // separator's block counted dense).
-  auto whole = SparseCholesky::Create(dense ? CholeskyKind::kCholmodSupernodal
-                                            : CholeskyKind::kCholmodSimplicial);
+  auto whole = SparseCholesky::Create(dense ? CholeskyKind::kSupernodal
+                                            : CholeskyKind::kSimplicial);
   whole->SetBlockOrdering(chol->BlockOrdering());
   whole->Analyze(3 * m.blocks, col_ptr, rows, sizes);
   SolveWith(*whole, a, col_ptr, rows, b);
@@ -471,7 +471,7 @@ TEST(SparseCholesky, TwoHalvesLeaveASmallGraphToOneFactorisation) {
   BlockMatrix m = Grid(6);
   std::vector<int> col_ptr, rows;
   m.Pattern(&col_ptr, &rows);
-  auto chol = SparseCholesky::Create(CholeskyKind::kCholmodParallel);
+  auto chol = SparseCholesky::Create(CholeskyKind::kTwoHalves);
   chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
   EXPECT_EQ(chol->Method().find("two halves"), std::string::npos) << chol->Method();
   const Eigen::MatrixXd a = m.Dense(9);

@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "backend/geometry.h"
+#include "cairn/graph/geometry.h"
 
 namespace cairn {
 namespace {

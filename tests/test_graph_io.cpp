@@ -7,8 +7,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "backend/chi2.h"
-#include "backend/graph_io.h"
+#include "cairn/graph/chi2.h"
+#include "cairn/graph/graph_io.h"
 #include "test_util.h"
 
 namespace cairn {

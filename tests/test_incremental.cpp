@@ -6,10 +6,10 @@
 
 #include <cmath>
 
-#include "backend/chi2.h"
-#include "backend/graph_gauss_newton.h"
-#include "backend/incremental.h"
-#include "backend/simulate.h"
+#include "cairn/graph/chi2.h"
+#include "cairn/solvers/graph_gauss_newton.h"
+#include "cairn/solvers/incremental.h"
+#include "cairn/graph/simulate.h"
 
 namespace cairn {
 namespace {

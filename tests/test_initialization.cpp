@@ -2,11 +2,11 @@
 // relaxation, on simulated graphs whose truth is known.
 #include <gtest/gtest.h>
 
-#include "backend/chi2.h"
-#include "backend/graph_gauss_newton.h"
-#include "backend/initialization.h"
-#include "backend/pose_difference.h"
-#include "backend/simulate.h"
+#include "cairn/graph/chi2.h"
+#include "cairn/solvers/graph_gauss_newton.h"
+#include "cairn/graph/initialization.h"
+#include "cairn/graph/pose_difference.h"
+#include "cairn/graph/simulate.h"
 #include "test_util.h"
 
 #include <fstream>

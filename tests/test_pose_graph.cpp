@@ -1,9 +1,9 @@
 // The pose-graph model: validation, edge kinds, chi-squared, components.
 #include <gtest/gtest.h>
 
-#include "backend/chi2.h"
-#include "backend/initialization.h"
-#include "backend/pose_graph.h"
+#include "cairn/graph/chi2.h"
+#include "cairn/graph/initialization.h"
+#include "cairn/graph/pose_graph.h"
 
 namespace cairn {
 namespace {

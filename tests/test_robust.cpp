@@ -10,15 +10,15 @@
 #include <set>
 #include <sstream>
 
-#include "backend/ceres_solver.h"
-#include "backend/chi2.h"
-#include "backend/graph_factors.h"
-#include "backend/graph_gauss_newton.h"
-#include "backend/graph_io.h"
-#include "backend/leverage.h"
-#include "backend/outliers.h"
-#include "backend/pose_difference.h"
-#include "backend/simulate.h"
+#include "cairn/solvers/ceres_solver.h"
+#include "cairn/graph/chi2.h"
+#include "cairn/solvers/graph_factors.h"
+#include "cairn/solvers/graph_gauss_newton.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/robust/leverage.h"
+#include "cairn/robust/outliers.h"
+#include "cairn/graph/pose_difference.h"
+#include "cairn/graph/simulate.h"
 #include "test_util.h"
 
 namespace cairn {

@@ -6,7 +6,7 @@
 #include <regex>
 #include <sstream>
 
-#include "backend/svg_plot.h"
+#include "cairn/graph/svg_plot.h"
 
 namespace cairn {
 namespace {

@@ -6,9 +6,9 @@
 #include <sstream>
 #include <string>
 
-#include "backend/graph_io.h"
-#include "backend/odometry_calibration.h"
-#include "frontend/calibration_log.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/calibration/odometry_calibration.h"
+#include "cairn/frontend/calibration_log.h"
 #include "tools/args.h"
 #include "tools/command.h"
 

@@ -5,11 +5,11 @@
 #include <iostream>
 #include <sstream>
 
-#include "backend/ceres_solver.h"
-#include "backend/graph_gauss_newton.h"
-#include "backend/graph_io.h"
-#include "backend/initialization.h"
-#include "backend/pose_difference.h"
+#include "cairn/solvers/ceres_solver.h"
+#include "cairn/solvers/graph_gauss_newton.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/graph/initialization.h"
+#include "cairn/graph/pose_difference.h"
 #include "tools/args.h"
 #include "tools/command.h"
 

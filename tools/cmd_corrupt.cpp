@@ -4,8 +4,8 @@
 #include <cstdio>
 #include <ostream>
 
-#include "backend/graph_io.h"
-#include "backend/outliers.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/robust/outliers.h"
 #include "tools/args.h"
 #include "tools/command.h"
 

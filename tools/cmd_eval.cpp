@@ -4,8 +4,8 @@
 #include <iostream>
 #include <sstream>
 
-#include "backend/graph_io.h"
-#include "frontend/trajectory.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/frontend/trajectory.h"
 #include "tools/args.h"
 #include "tools/command.h"
 

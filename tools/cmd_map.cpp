@@ -5,11 +5,11 @@
 #include <iomanip>
 #include <iostream>
 
-#include "backend/graph_io.h"
-#include "frontend/carmen_log.h"
-#include "frontend/mapper.h"
-#include "frontend/svg.h"
-#include "frontend/trajectory.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/frontend/carmen_log.h"
+#include "cairn/frontend/mapper.h"
+#include "cairn/frontend/svg.h"
+#include "cairn/frontend/trajectory.h"
 #include "tools/args.h"
 #include "tools/command.h"
 

@@ -4,15 +4,15 @@
 #include <iostream>
 #include <sstream>
 
-#include "backend/ceres_solver.h"
-#include "backend/chi2.h"
-#include "backend/covariance.h"
-#include "backend/graph_gauss_newton.h"
-#include "backend/graph_io.h"
-#include "backend/initialization.h"
-#include "backend/outliers.h"
-#include "backend/solve_result.h"
-#include "backend/svg_plot.h"
+#include "cairn/solvers/ceres_solver.h"
+#include "cairn/graph/chi2.h"
+#include "cairn/solvers/covariance.h"
+#include "cairn/solvers/graph_gauss_newton.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/graph/initialization.h"
+#include "cairn/robust/outliers.h"
+#include "cairn/solvers/solve_result.h"
+#include "cairn/graph/svg_plot.h"
 #include "tools/args.h"
 #include "tools/command.h"
 

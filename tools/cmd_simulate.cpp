@@ -2,9 +2,9 @@
 #include <cstdio>
 #include <iostream>
 
-#include "backend/chi2.h"
-#include "backend/graph_io.h"
-#include "backend/simulate.h"
+#include "cairn/graph/chi2.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/graph/simulate.h"
 #include "tools/args.h"
 #include "tools/command.h"
 

@@ -58,7 +58,7 @@ void RestartWithHugePages(char** argv) {
                                 ? std::string(tunables) + ":glibc.malloc.hugetlb=1"
                                 : std::string("glibc.malloc.hugetlb=1");
   if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
-  // The solvers hold OpenBLAS to one thread anyway (backend/serial_scope.h);
+  // The solvers hold OpenBLAS to one thread anyway (backend/linear/serial_scope.h);
   // unless asked otherwise, it then starts no worker, which would spin for
   // its first 0.1 s against the file's reading and the first linearisation.
   setenv("OPENBLAS_NUM_THREADS", "1", /*overwrite=*/0);

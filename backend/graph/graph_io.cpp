@@ -1,0 +1,455 @@
+#include "cairn/graph/graph_io.h"
+
+#include <deque>
+#include <unistd.h>
+
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+#include <vector>
+
+#include "cairn/graph/initialization.h"
+
+namespace cairn {
+
+ParseError::ParseError(const std::string& file, size_t line, const std::string& message)
+    : std::runtime_error(file + ":" + std::to_string(line) + ": " + message),
+      file_(file),
+      line_(line),
+      message_(message) {}
+
+namespace {
+
+// One line's fields, with number parsing that reports where it went wrong.
+class Fields {
+ public:
+  Fields(std::vector<std::string> tokens, const std::string& file, size_t line)
+      : tokens_(std::move(tokens)), file_(file), line_(line) {}
+
+  const std::string& tag() const { return tokens_[0]; }
+  size_t size() const { return tokens_.size() - 1; }
+
+  [[noreturn]] void Fail(const std::string& message) const {
+    throw ParseError(file_, line_, message);
+  }
+
+  void ExpectCount(size_t n) const {
+    if (size() < n)
+      Fail(tag() + " needs " + std::to_string(n) + " fields, found " + std::to_string(size()));
+    if (size() > n)
+      Fail(tag() + " takes " + std::to_string(n) + " fields, found " + std::to_string(size()) +
+           " (extra: '" + tokens_[n + 1] + "')");
+  }
+  void ExpectAtLeast(size_t n) const {
+    if (size() < n)
+      Fail(tag() + " needs at least " + std::to_string(n) + " fields, found " +
+           std::to_string(size()));
+  }
+
+  // Field k (1-based after the tag) as a finite double.
+  double Number(size_t k, const char* what) const {
+    const std::string& s = tokens_[k];
+    errno = 0;
+    char* end = nullptr;
+    const double v = std::strtod(s.c_str(), &end);
+    if (end == s.c_str() || *end != '\0')
+      Fail(std::string("expected a number for ") + what + ", found '" + s + "'");
+    if (std::isnan(v)) Fail(std::string(what) + " is NaN");
+    if (std::isinf(v) || (errno == ERANGE && std::fabs(v) > 1)) {
+      Fail(std::string(what) + " is out of range ('" + s + "')");
+    }
+    return v;
+  }
+
+  // Field k as a vertex id: a non-negative integer that fits in an int.
+  int64_t Id(size_t k) const {
+    const std::string& s = tokens_[k];
+    errno = 0;
+    char* end = nullptr;
+    const long long v = std::strtoll(s.c_str(), &end, 10);
+    if (end == s.c_str() || *end != '\0') Fail("expected a vertex id, found '" + s + "'");
+    if (errno == ERANGE || v < 0 || v > std::numeric_limits<int32_t>::max())
+      Fail("vertex id " + s + " is out of range (0 to 2147483647)");
+    return v;
+  }
+
+ private:
+  std::vector<std::string> tokens_;
+  const std::string& file_;
+  size_t line_;
+};
+
+// Normalises a quaternion read from a file: zero is refused, a small
+// deviation from unit length (rounding in the file) is corrected, a large
+// one is refused. Exactly-unit quaternions are left bit for bit.
+void CheckQuaternion(const Fields& f, double* q) {
+  const double n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+  if (!(n2 > 1e-20)) f.Fail("zero quaternion");
+  const double n = std::sqrt(n2);
+  if (std::fabs(n - 1.0) > 1e-2)
+    f.Fail("quaternion is far from unit length (norm " + std::to_string(n) + ")");
+  if (std::fabs(n2 - 1.0) > 8 * std::numeric_limits<double>::epsilon())
+    for (int i = 0; i < 4; ++i) q[i] /= n;
+}
+
+// Reads an upper triangle row by row into a symmetric n x n block.
+void ReadUpperTriangle(const Fields& f, size_t first, int n, Matrix6d* info) {
+  info->setZero();
+  size_t k = first;
+  for (int r = 0; r < n; ++r)
+    for (int c = r; c < n; ++c) {
+      const double v = f.Number(k++, "an information entry");
+      (*info)(r, c) = (*info)(c, r) = v;
+    }
+}
+
+void CheckInformation(const Fields& f, const Matrix6d& info, int n) {
+  if (!IsSymmetricPositiveDefinite(info.topLeftCorner(n, n)))
+    f.Fail("information matrix is not positive definite");
+}
+
+// TORO's 2D order is (xx, xy, yy, tt, xt, yt).
+Matrix6d ToroInformation2D(const Fields& f, size_t first) {
+  const double xx = f.Number(first, "an information entry");
+  const double xy = f.Number(first + 1, "an information entry");
+  const double yy = f.Number(first + 2, "an information entry");
+  const double tt = f.Number(first + 3, "an information entry");
+  const double xt = f.Number(first + 4, "an information entry");
+  const double yt = f.Number(first + 5, "an information entry");
+  Matrix6d info = Matrix6d::Zero();
+  info.topLeftCorner<3, 3>() << xx, xy, xt, xy, yy, yt, xt, yt, tt;
+  return info;
+}
+
+struct PendingEdge {
+  Edge edge;
+  size_t line;
+};
+
+bool LooksBinary(const std::string& line) {
+  for (unsigned char c : line)
+    if (c == 0 || (c < 32 && c != '\t' && c != '\r' && c != '\v' && c != '\f')) return true;
+  return false;
+}
+
+// Splits on the whitespace operator>> skips; by hand, since a string stream
+// per line dominated the time to read large files.
+std::vector<std::string> Tokenize(const std::string& line) {
+  std::vector<std::string> out;
+  const char* p = line.c_str();
+  const char* end = p + line.size();
+  while (p < end) {
+    while (p < end && std::isspace(static_cast<unsigned char>(*p))) ++p;
+    const char* start = p;
+    while (p < end && !std::isspace(static_cast<unsigned char>(*p))) ++p;
+    if (p > start) out.emplace_back(start, p);
+  }
+  return out;
+}
+
+class Reader {
+ public:
+  Reader(const std::string& name, const ReadOptions& options) : name_(name), options_(options) {}
+
+  void Line(const std::string& raw, size_t line_no) {
+    if (LooksBinary(raw)) throw ParseError(name_, line_no, "binary data, not a pose-graph file");
+    std::string line = raw;
+    const size_t hash = line.find('#');
+    if (hash != std::string::npos) line.resize(hash);
+    auto tokens = Tokenize(line);
+    if (tokens.empty()) return;
+    Fields f(std::move(tokens), name_, line_no);
+    const std::string& tag = f.tag();
+    if (tag == "VERTEX_SE2" || tag == "VERTEX2") {
+      SetDimension(f, 2);
+      f.ExpectCount(4);
+      AddVertex(f, {f.Number(2, "x"), f.Number(3, "y"), f.Number(4, "theta"), 0, 0, 0, 0});
+    } else if (tag == "VERTEX_SE3:QUAT") {
+      SetDimension(f, 3);
+      f.ExpectCount(8);
+      PoseParams p{};
+      for (int i = 0; i < 7; ++i) p[i] = f.Number(2 + i, i < 3 ? "a translation" : "a quaternion");
+      CheckQuaternion(f, &p[3]);
+      AddVertex(f, p);
+    } else if (tag == "VERTEX3") {
+      SetDimension(f, 3);
+      f.ExpectCount(7);
+      Vector6d v;
+      for (int i = 0; i < 6; ++i) v[i] = f.Number(2 + i, i < 3 ? "a translation" : "an angle");
+      AddVertex(f, ToParams(SE3::FromEulerVector(v)));
+    } else if (tag == "EDGE_SE2" || tag == "EDGE2") {
+      SetDimension(f, 2);
+      f.ExpectCount(11);
+      Edge e = Between(f);
+      e.z = {f.Number(3, "dx"), f.Number(4, "dy"), f.Number(5, "dtheta"), 0, 0, 0, 0};
+      if (tag == "EDGE_SE2") {
+        ReadUpperTriangle(f, 6, 3, &e.information);
+      } else {
+        e.information = ToroInformation2D(f, 6);
+      }
+      CheckInformation(f, e.information, 3);
+      edges_.push_back({e, line_no});
+    } else if (tag == "EDGE_SE3:QUAT") {
+      SetDimension(f, 3);
+      f.ExpectCount(30);
+      Edge e = Between(f);
+      for (int i = 0; i < 7; ++i) e.z[i] = f.Number(3 + i, i < 3 ? "a translation" : "a quaternion");
+      CheckQuaternion(f, &e.z[3]);
+      ReadUpperTriangle(f, 10, 6, &e.information);
+      CheckInformation(f, e.information, 6);
+      edges_.push_back({e, line_no});
+    } else if (tag == "EDGE3") {
+      SetDimension(f, 3);
+      f.ExpectCount(29);
+      Edge e = Between(f);
+      Vector6d v;
+      for (int i = 0; i < 6; ++i) v[i] = f.Number(3 + i, i < 3 ? "a translation" : "an angle");
+      e.z = ToParams(SE3::FromEulerVector(v));
+      Matrix6d rpy;
+      ReadUpperTriangle(f, 9, 6, &rpy);
+      CheckInformation(f, rpy, 6);
+      // TORO weighs small roll-pitch-yaw errors; g2o's rotation error is the
+      // quaternion's vector part, about half the angles: Omega_q = J^T Omega J
+      // with J = diag(I, 2I).
+      Vector6d j;
+      j << 1, 1, 1, 2, 2, 2;
+      e.information = j.asDiagonal() * rpy * j.asDiagonal();
+      edges_.push_back({e, line_no});
+    } else if (tag == "EDGE_PRIOR_SE2") {
+      SetDimension(f, 2);
+      f.ExpectCount(10);
+      Edge e = Prior(f);
+      e.z = {f.Number(2, "x"), f.Number(3, "y"), f.Number(4, "theta"), 0, 0, 0, 0};
+      ReadUpperTriangle(f, 5, 3, &e.information);
+      CheckInformation(f, e.information, 3);
+      edges_.push_back({e, line_no});
+    } else if (tag == "EDGE_SE3_PRIOR") {
+      SetDimension(f, 3);
+      f.ExpectCount(30);
+      Edge e = Prior(f);
+      const int64_t param = f.Id(2);
+      auto it = offsets_.find(param);
+      if (it == offsets_.end())
+        f.Fail("EDGE_SE3_PRIOR names parameter " + std::to_string(param) +
+               ", which no PARAMS_SE3OFFSET line defines");
+      if (!it->second) f.Fail("EDGE_SE3_PRIOR with a non-identity sensor offset is not supported");
+      for (int i = 0; i < 7; ++i) e.z[i] = f.Number(3 + i, i < 3 ? "a translation" : "a quaternion");
+      CheckQuaternion(f, &e.z[3]);
+      ReadUpperTriangle(f, 10, 6, &e.information);
+      CheckInformation(f, e.information, 6);
+      edges_.push_back({e, line_no});
+    } else if (tag == "PARAMS_SE3OFFSET") {
+      f.ExpectCount(8);
+      double p[7];
+      for (int i = 0; i < 7; ++i) p[i] = f.Number(2 + i, "an offset");
+      CheckQuaternion(f, &p[3]);
+      const bool identity = p[0] == 0 && p[1] == 0 && p[2] == 0 && std::fabs(p[6]) == 1.0;
+      offsets_[f.Id(1)] = identity;
+    } else if (tag == "FIX") {
+      f.ExpectAtLeast(1);
+      for (size_t k = 1; k <= f.size(); ++k) fixed_.push_back({f.Id(k), line_no});
+    } else {
+      if (options_.strict) f.Fail("unknown tag '" + tag + "' (--strict refuses unknown tags)");
+      if (warned_.insert(tag).second && options_.warnings)
+        *options_.warnings << name_ << ":" << line_no << ": warning: skipping unknown tag '"
+                           << tag << "' (warned once per tag)\n";
+    }
+  }
+
+  PoseGraph Finish(size_t lines) {
+    if (dimension_ == 0) throw ParseError(name_, lines, "empty file: no vertices or edges");
+    PoseGraph graph(dimension_);
+    const bool edges_only = vertices_.empty();
+    for (const Vertex& v : vertices_) graph.AddVertex(v.id, v.x);
+    if (edges_only) {
+      // No VERTEX lines: every endpoint becomes a vertex, placed later by
+      // chaining the measurements.
+      std::set<int64_t> ids;
+      for (const auto& p : edges_) {
+        ids.insert(p.edge.from);
+        if (!p.edge.IsPrior()) ids.insert(p.edge.to);
+      }
+      for (int64_t id : ids) graph.AddVertex(id, graph.dimension() == 2 ? ToParams(SE2()) : ToParams(SE3()));
+    }
+    // Edges move from the pending queue into the graph one by one, the queue
+    // releasing its blocks as it goes: a large file's edges are held about
+    // once, not twice, at the peak.
+    graph.mutable_edges().reserve(edges_.size());
+    for (; !edges_.empty(); edges_.pop_front()) {
+      const PendingEdge& p = edges_.front();
+      for (int64_t id : {p.edge.from, p.edge.to}) {
+        if (id == p.edge.to && p.edge.IsPrior()) continue;
+        if (!graph.HasVertex(id))
+          throw ParseError(name_, p.line,
+                           "edge to vertex " + std::to_string(id) + ", which does not exist");
+      }
+      if (!p.edge.IsPrior() && p.edge.from == p.edge.to)
+        throw ParseError(name_, p.line,
+                         "edge joins vertex " + std::to_string(p.edge.from) + " to itself");
+      graph.AddEdge(p.edge);
+    }
+    for (const auto& [id, line] : fixed_) {
+      if (!graph.HasVertex(id))
+        throw ParseError(name_, line, "FIX names vertex " + std::to_string(id) + ", which does not exist");
+      graph.vertex(id).fixed = true;
+    }
+    if (edges_only) InitializeBySpanningTree(graph);
+    return graph;
+  }
+
+ private:
+  void SetDimension(const Fields& f, int dim) {
+    if (dimension_ == 0) {
+      dimension_ = dim;
+      first_line_ = f.tag();
+    } else if (dimension_ != dim) {
+      f.Fail(f.tag() + " in a " + std::to_string(dimension_) + "D file (it began with " +
+             first_line_ + "): SE2 and SE3 cannot be mixed");
+    }
+  }
+
+  void AddVertex(const Fields& f, const PoseParams& x) {
+    const int64_t id = f.Id(1);
+    if (!vertex_ids_.insert(id).second) f.Fail("duplicate vertex id " + std::to_string(id));
+    vertices_.push_back(Vertex{id, x, false});
+  }
+
+  Edge Between(const Fields& f) const {
+    Edge e;
+    e.from = f.Id(1);
+    e.to = f.Id(2);
+    e.kind = KindForBetween(e.from, e.to);
+    return e;
+  }
+
+  Edge Prior(const Fields& f) const {
+    Edge e;
+    e.kind = EdgeKind::kPrior;
+    e.from = f.Id(1);
+    e.to = -1;
+    return e;
+  }
+
+  std::string name_;
+  ReadOptions options_;
+  int dimension_ = 0;
+  std::string first_line_;
+  std::vector<Vertex> vertices_;
+  std::set<int64_t> vertex_ids_;
+  std::deque<PendingEdge> edges_;
+  std::vector<std::pair<int64_t, size_t>> fixed_;
+  std::map<int64_t, bool> offsets_;  // parameter id -> is identity
+  std::set<std::string> warned_;
+};
+
+}  // namespace
+
+PoseGraph ReadGraph(std::istream& in, const std::string& name, const ReadOptions& options) {
+  Reader reader(name, options);
+  std::string line;
+  size_t line_no = 0;
+  while (std::getline(in, line)) reader.Line(line, ++line_no);
+  if (in.bad()) throw ParseError(name, line_no, "read error");
+  return reader.Finish(line_no == 0 ? 1 : line_no);
+}
+
+PoseGraph ReadGraph(const std::string& path, const ReadOptions& options) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw std::runtime_error(path + ": is a directory, not a pose-graph file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open: " + std::strerror(errno));
+  return ReadGraph(in, path, options);
+}
+
+namespace {
+
+void WriteNumbers(std::ostream& out, const double* v, int n) {
+  char buf[32];
+  for (int i = 0; i < n; ++i) {
+    std::snprintf(buf, sizeof buf, " %.17g", v[i]);
+    out << buf;
+  }
+}
+
+void WriteUpperTriangle(std::ostream& out, const Matrix6d& info, int n) {
+  char buf[32];
+  for (int r = 0; r < n; ++r)
+    for (int c = r; c < n; ++c) {
+      std::snprintf(buf, sizeof buf, " %.17g", info(r, c));
+      out << buf;
+    }
+}
+
+}  // namespace
+
+void WriteG2o(const PoseGraph& graph, std::ostream& out) {
+  const bool planar = graph.dimension() == 2;
+  const int np = graph.ParameterSize(), nt = graph.TangentSize();
+  bool has_se3_prior = false;
+  for (const Edge& e : graph.edges()) has_se3_prior |= e.IsPrior() && !planar;
+  if (has_se3_prior) out << "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1\n";
+  for (const Vertex& v : graph.vertices()) {
+    out << (planar ? "VERTEX_SE2 " : "VERTEX_SE3:QUAT ") << v.id;
+    WriteNumbers(out, v.x.data(), np);
+    out << '\n';
+  }
+  for (const Vertex& v : graph.vertices())
+    if (v.fixed) out << "FIX " << v.id << '\n';
+  for (const Edge& e : graph.edges()) {
+    if (e.IsPrior()) {
+      out << (planar ? "EDGE_PRIOR_SE2 " : "EDGE_SE3_PRIOR ") << e.from;
+      if (!planar) out << " 0";
+    } else {
+      out << (planar ? "EDGE_SE2 " : "EDGE_SE3:QUAT ") << e.from << ' ' << e.to;
+    }
+    WriteNumbers(out, e.z.data(), np);
+    WriteUpperTriangle(out, e.information, nt);
+    out << '\n';
+  }
+}
+
+void WriteFileAtomically(const std::string& path,
+                         const std::function<void(std::ostream&)>& fill) {
+  namespace fs = std::filesystem;
+  const fs::path target(path);
+  const fs::path tmp = target.parent_path() /
+                       ("." + target.filename().string() + ".tmp." + std::to_string(::getpid()));
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw std::runtime_error(path + ": cannot write: " + std::strerror(errno));
+    try {
+      fill(out);
+      out.flush();
+      if (!out) throw std::runtime_error(path + ": write failed: " + std::strerror(errno));
+    } catch (...) {
+      out.close();
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      throw;
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw std::runtime_error(path + ": cannot rename the finished file into place");
+  }
+}
+
+void WriteG2o(const PoseGraph& graph, const std::string& path) {
+  WriteFileAtomically(path, [&](std::ostream& out) { WriteG2o(graph, out); });
+}
+
+}  // namespace cairn

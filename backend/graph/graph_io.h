@@ -1,0 +1,51 @@
+// Reading and writing pose-graph files: g2o (VERTEX_SE2, EDGE_SE2,
+// VERTEX_SE3:QUAT, EDGE_SE3:QUAT, EDGE_PRIOR_SE2, EDGE_SE3_PRIOR, FIX) and
+// TORO (VERTEX2, EDGE2, VERTEX3, EDGE3). Errors name the file and line.
+#pragma once
+
+#include <functional>
+#include <iosfwd>
+#include <stdexcept>
+#include <string>
+
+#include "cairn/graph/pose_graph.h"
+
+namespace cairn {
+
+// A malformed input: what() reads "FILE:LINE: what is wrong".
+class ParseError : public std::runtime_error {
+ public:
+  ParseError(const std::string& file, size_t line, const std::string& message);
+  const std::string& file() const { return file_; }
+  size_t line() const { return line_; }
+  const std::string& message() const { return message_; }
+
+ private:
+  std::string file_;
+  size_t line_;
+  std::string message_;
+};
+
+struct ReadOptions {
+  // Refuse tags cairn does not know instead of skipping them.
+  bool strict = false;
+  // Where the one-per-tag warnings go; null silences them.
+  std::ostream* warnings = nullptr;
+};
+
+// Reads a g2o or TORO file (told apart by their tags). A file with edges but
+// no vertices gets its vertices by chaining the measurements along a
+// spanning tree from the lowest id. Throws ParseError.
+PoseGraph ReadGraph(const std::string& path, const ReadOptions& options = {});
+PoseGraph ReadGraph(std::istream& in, const std::string& name, const ReadOptions& options = {});
+
+// Writes g2o with every double in round-trip precision. The file is written
+// beside its destination and renamed when complete: never a half file.
+void WriteG2o(const PoseGraph& graph, const std::string& path);
+void WriteG2o(const PoseGraph& graph, std::ostream& out);
+
+// Writes a file atomically: `fill` writes to a temporary stream, which is
+// renamed onto `path` only if `fill` returns without throwing.
+void WriteFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& fill);
+
+}  // namespace cairn

@@ -1,0 +1,383 @@
+#include "cairn/graph/initialization.h"
+
+#include <Eigen/SVD>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <numeric>
+#include <queue>
+#include <unordered_map>
+
+#include "cairn/graph/chi2.h"
+
+namespace cairn {
+namespace {
+
+// Adjacency by vertex index: (edge index, neighbour index) pairs.
+std::vector<std::vector<std::pair<size_t, size_t>>> Adjacency(const PoseGraph& graph) {
+  std::vector<std::vector<std::pair<size_t, size_t>>> adj(graph.vertices().size());
+  const auto& edges = graph.edges();
+  for (size_t k = 0; k < edges.size(); ++k) {
+    if (edges[k].IsPrior()) continue;
+    const size_t a = graph.VertexIndex(edges[k].from), b = graph.VertexIndex(edges[k].to);
+    adj[a].emplace_back(k, b);
+    adj[b].emplace_back(k, a);
+  }
+  return adj;
+}
+
+// Pose of `to_index` from the pose of the other end of edge `e`.
+PoseParams Propagate(const PoseGraph& graph, const Edge& e, const PoseParams& from_pose,
+                     bool forward) {
+  if (graph.dimension() == 2) {
+    const SE2 z = ToSE2(e.z);
+    return ToParams(ToSE2(from_pose) * (forward ? z : z.Inverse()));
+  }
+  const SE3 z = ToSE3(e.z);
+  return ToParams(ToSE3(from_pose) * (forward ? z : z.Inverse()));
+}
+
+}  // namespace
+
+void InitializeBySpanningTree(PoseGraph& graph) {
+  auto& vertices = graph.vertices();
+  const size_t n = vertices.size();
+  const auto adj = Adjacency(graph);
+  const int dim = graph.TangentSize();
+  std::vector<double> certainty(graph.edges().size());
+  for (size_t k = 0; k < graph.edges().size(); ++k)
+    certainty[k] = graph.edges()[k].information.topLeftCorner(dim, dim).trace();
+
+  // Roots first: fixed vertices, then the rest by id.
+  std::vector<size_t> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    if (vertices[a].fixed != vertices[b].fixed) return vertices[a].fixed;
+    return vertices[a].id < vertices[b].id;
+  });
+
+  std::vector<bool> done(n, false);
+  // Prim's algorithm on a max-heap of (certainty, edge, vertex reached).
+  using Item = std::tuple<double, size_t, size_t>;
+  for (size_t root : order) {
+    if (done[root]) continue;
+    done[root] = true;
+    std::priority_queue<Item> heap;
+    auto push_from = [&](size_t v) {
+      for (const auto& [k, w] : adj[v])
+        if (!done[w]) heap.emplace(certainty[k], k, w);
+    };
+    push_from(root);
+    while (!heap.empty()) {
+      const auto [c, k, w] = heap.top();
+      heap.pop();
+      if (done[w]) continue;
+      const Edge& e = graph.edges()[k];
+      const bool forward = graph.VertexIndex(e.to) == w;
+      const size_t from = forward ? graph.VertexIndex(e.from) : graph.VertexIndex(e.to);
+      if (!vertices[w].fixed) vertices[w].x = Propagate(graph, e, vertices[from].x, forward);
+      done[w] = true;
+      push_from(w);
+    }
+  }
+}
+
+std::vector<std::vector<int64_t>> ConnectedComponents(const PoseGraph& graph) {
+  const size_t n = graph.vertices().size();
+  std::vector<size_t> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](size_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (const Edge& e : graph.edges()) {
+    if (e.IsPrior()) continue;
+    const size_t a = find(graph.VertexIndex(e.from)), b = find(graph.VertexIndex(e.to));
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
+  std::unordered_map<size_t, size_t> slot;
+  std::vector<std::vector<int64_t>> components;
+  for (size_t i = 0; i < n; ++i) {
+    const size_t r = find(i);
+    auto it = slot.find(r);
+    if (it == slot.end()) {
+      it = slot.emplace(r, components.size()).first;
+      components.emplace_back();
+    }
+    components[it->second].push_back(graph.vertices()[i].id);
+  }
+  for (auto& c : components) std::sort(c.begin(), c.end());
+  std::sort(components.begin(), components.end(),
+            [](const auto& a, const auto& b) { return a.front() < b.front(); });
+  return components;
+}
+
+}  // namespace cairn
+
+// ---------------------------------------------------------------------------
+// Odometry chaining and the chordal relaxation.
+
+namespace cairn {
+namespace {
+
+// Index of each component's root (fixed vertex first, else lowest id), by
+// vertex index: root_of[i] is true for roots.
+std::vector<bool> ComponentRoots(const PoseGraph& graph) {
+  const auto components = ConnectedComponents(graph);
+  std::vector<bool> root(graph.vertices().size(), false);
+  for (const auto& ids : components) {
+    int64_t chosen = ids.front();
+    for (int64_t id : ids)
+      if (graph.vertex(id).fixed) {
+        chosen = id;
+        break;
+      }
+    root[graph.VertexIndex(chosen)] = true;
+  }
+  return root;
+}
+
+// Blocks of at most 3x3 (3 right-hand sides), kept on the stack: the
+// chordal step builds a few of them per edge.
+using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>;
+
+// A sparse symmetric system over blocks of size d, with some blocks known
+// (anchored): their terms move to the right-hand side. Solved by Eigen's
+// simplicial LDL^T; `rhs_columns` right-hand sides share one factorisation.
+class BlockSystem {
+ public:
+  BlockSystem(const std::vector<bool>& anchored, int d, int rhs_columns)
+      : d_(d), index_(anchored.size(), -1) {
+    int n = 0;
+    for (size_t i = 0; i < anchored.size(); ++i)
+      if (!anchored[i]) index_[i] = n++;
+    n_ = n;
+    b_ = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n) * d, rhs_columns);
+  }
+
+  // Adds the residual A_i x_i + A_j x_j - c (weight W) for vertices i, j;
+  // `known` gives the values of anchored blocks (d x rhs_columns each).
+  void AddResidual(size_t i, const Block& ai, size_t j, const Block& aj,
+                   const Block& c, const Block& w,
+                   const std::vector<Block>& known) {
+    // Move anchored terms into the constant: r = A_u x_u - (c - A_a x_a).
+    Block rhs = c;
+    if (index_[i] < 0) rhs -= ai * known[i];
+    if (index_[j] < 0) rhs -= aj * known[j];
+    const std::pair<size_t, const Block*> terms[2] = {{i, &ai}, {j, &aj}};
+    for (const auto& [p, ap] : terms) {
+      if (index_[p] < 0) continue;
+      b_.middleRows(static_cast<Eigen::Index>(index_[p]) * d_, d_) += ap->transpose() * w * rhs;
+      for (const auto& [q, aq] : terms) {
+        if (index_[q] < 0) continue;
+        AddBlock(index_[p], index_[q], ap->transpose() * w * *aq);
+      }
+    }
+  }
+
+  void Reserve(size_t residuals) { triplets_.reserve(residuals * 4 * d_ * d_); }
+
+  // Solves and returns the unknown blocks (by vertex index; anchored: empty).
+  std::vector<Block> Solve() {
+    Eigen::SparseMatrix<double> h(static_cast<Eigen::Index>(n_) * d_,
+                                  static_cast<Eigen::Index>(n_) * d_);
+    h.setFromTriplets(triplets_.begin(), triplets_.end());
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(h);
+    if (ldlt.info() != Eigen::Success)
+      throw std::runtime_error("chordal initialisation: singular linear system");
+    const Eigen::MatrixXd x = ldlt.solve(b_);
+    if (!x.allFinite()) throw std::runtime_error("chordal initialisation: no finite solution");
+    std::vector<Block> out(index_.size());
+    for (size_t v = 0; v < index_.size(); ++v)
+      if (index_[v] >= 0) out[v] = x.middleRows(static_cast<Eigen::Index>(index_[v]) * d_, d_);
+    return out;
+  }
+
+ private:
+  void AddBlock(int r, int c, const Block& m) {
+    for (int a = 0; a < d_; ++a)
+      for (int b = 0; b < d_; ++b)
+        if (m(a, b) != 0) triplets_.emplace_back(r * d_ + a, c * d_ + b, m(a, b));
+  }
+
+  int d_, n_ = 0;
+  std::vector<int> index_;
+  Eigen::MatrixXd b_;
+  std::vector<Eigen::Triplet<double>> triplets_;
+};
+
+Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& m) {
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
+  return svd.matrixU() * d * svd.matrixV().transpose();
+}
+
+}  // namespace
+
+void InitializeByOdometry(PoseGraph& graph) {
+  auto& vertices = graph.vertices();
+  const std::vector<bool> root = ComponentRoots(graph);
+  // Odometry adjacency by vertex index.
+  std::vector<std::vector<size_t>> adj(vertices.size());
+  const auto& edges = graph.edges();
+  for (size_t k = 0; k < edges.size(); ++k) {
+    if (edges[k].kind != EdgeKind::kOdometry) continue;
+    adj[graph.VertexIndex(edges[k].from)].push_back(k);
+    adj[graph.VertexIndex(edges[k].to)].push_back(k);
+  }
+  std::vector<bool> done(vertices.size(), false);
+  for (size_t r = 0; r < vertices.size(); ++r) {
+    if (!root[r]) continue;
+    std::vector<size_t> stack{r};
+    done[r] = true;
+    while (!stack.empty()) {
+      const size_t v = stack.back();
+      stack.pop_back();
+      for (size_t k : adj[v]) {
+        const Edge& e = edges[k];
+        const bool forward = graph.VertexIndex(e.from) == v;
+        const size_t w = graph.VertexIndex(forward ? e.to : e.from);
+        if (done[w]) continue;
+        done[w] = true;
+        if (!vertices[w].fixed) vertices[w].x = Propagate(graph, e, vertices[v].x, forward);
+        stack.push_back(w);
+      }
+    }
+  }
+}
+
+void InitializeChordal(PoseGraph& graph) {
+  auto& vertices = graph.vertices();
+  const size_t n = vertices.size();
+  const bool planar = graph.dimension() == 2;
+  const int d = planar ? 2 : 3;
+  const std::vector<bool> root = ComponentRoots(graph);
+  std::vector<bool> anchored(n);
+  for (size_t i = 0; i < n; ++i) anchored[i] = root[i] || vertices[i].fixed;
+
+  // Current rotations and translations, as matrices.
+  std::vector<Block> rot(n), trans(n);
+  for (size_t i = 0; i < n; ++i) {
+    if (planar) {
+      const SE2 p = ToSE2(vertices[i].x);
+      rot[i] = p.rotation();
+      trans[i] = p.translation();
+    } else {
+      const SE3 p = ToSE3(vertices[i].x);
+      rot[i] = p.rotation().toRotationMatrix();
+      trans[i] = p.translation();
+    }
+  }
+
+  // Rotations: R_j = R_i Z, i.e. for the transposed rows a = R^T,
+  // a_j = Z^T a_i: residual a_j - Z^T a_i, all d columns at once.
+  {
+    BlockSystem rs(anchored, d, d);
+    rs.Reserve(graph.edges().size());
+    std::vector<Block> known(n);
+    for (size_t i = 0; i < n; ++i) known[i] = rot[i].transpose();
+    const Block identity = Block::Identity(d, d);
+    for (const Edge& e : graph.edges()) {
+      if (e.IsPrior()) continue;
+      const size_t i = graph.VertexIndex(e.from), j = graph.VertexIndex(e.to);
+      Block z;
+      double w;
+      if (planar) {
+        z = ToSE2(e.z).rotation();
+        w = e.information(2, 2);
+      } else {
+        z = ToSE3(e.z).rotation().toRotationMatrix();
+        w = e.information.bottomRightCorner<3, 3>().trace() / 3.0;
+      }
+      rs.AddResidual(i, -z.transpose(), j, identity, Block::Zero(d, d),
+                     w * identity, known);
+    }
+    const auto solved = rs.Solve();
+    for (size_t i = 0; i < n; ++i) {
+      if (anchored[i]) continue;
+      const Block r = solved[i].transpose();
+      if (planar) {
+        const double theta = std::atan2(r(1, 0) - r(0, 1), r(0, 0) + r(1, 1));
+        rot[i] = SE2(0, 0, theta).rotation();
+      } else {
+        rot[i] = NearestRotation(r);
+      }
+    }
+  }
+
+  // Translations with the rotations fixed: r = t_j - t_i - R_i t_z, weighed
+  // by (R_i R_z) Omega_t (R_i R_z)^T, the translation error's information.
+  {
+    BlockSystem ts(anchored, d, 1);
+    ts.Reserve(graph.edges().size());
+    const Block identity = Block::Identity(d, d);
+    for (const Edge& e : graph.edges()) {
+      if (e.IsPrior()) continue;
+      const size_t i = graph.VertexIndex(e.from), j = graph.VertexIndex(e.to);
+      Block rz, tz;
+      if (planar) {
+        rz = ToSE2(e.z).rotation();
+        tz = ToSE2(e.z).translation();
+      } else {
+        rz = ToSE3(e.z).rotation().toRotationMatrix();
+        tz = ToSE3(e.z).translation();
+      }
+      const Block q = rot[i] * rz;
+      const Block w = q * e.information.topLeftCorner(d, d) * q.transpose();
+      ts.AddResidual(i, -identity, j, identity, rot[i] * tz, w, trans);
+    }
+    const auto solved = ts.Solve();
+    for (size_t i = 0; i < n; ++i)
+      if (!anchored[i]) trans[i] = solved[i];
+  }
+
+  for (size_t i = 0; i < n; ++i) {
+    if (anchored[i]) continue;
+    if (planar) {
+      vertices[i].x = ToParams(SE2(trans[i](0), trans[i](1), std::atan2(rot[i](1, 0), rot[i](0, 0))));
+    } else {
+      const Eigen::Matrix3d r = rot[i];
+      vertices[i].x = ToParams(SE3(Eigen::Quaterniond(r), Eigen::Vector3d(trans[i])));
+    }
+  }
+}
+
+InitMethod ParseInitMethod(const std::string& name) {
+  if (name == "file") return InitMethod::kFile;
+  if (name == "odometry") return InitMethod::kOdometry;
+  if (name == "spanning-tree") return InitMethod::kSpanningTree;
+  if (name == "chordal") return InitMethod::kChordal;
+  throw std::invalid_argument("unknown initialisation '" + name +
+                              "' (file, odometry, spanning-tree or chordal)");
+}
+
+const char* ToString(InitMethod method) {
+  switch (method) {
+    case InitMethod::kFile: return "file";
+    case InitMethod::kOdometry: return "odometry";
+    case InitMethod::kSpanningTree: return "spanning-tree";
+    case InitMethod::kChordal: return "chordal";
+  }
+  return "?";
+}
+
+InitReport Initialize(PoseGraph& graph, InitMethod method) {
+  const auto start = std::chrono::steady_clock::now();
+  switch (method) {
+    case InitMethod::kFile: break;
+    case InitMethod::kOdometry: InitializeByOdometry(graph); break;
+    case InitMethod::kSpanningTree: InitializeBySpanningTree(graph); break;
+    case InitMethod::kChordal: InitializeChordal(graph); break;
+  }
+  InitReport report;
+  report.method = method;
+  report.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  report.chi2 = Chi2(graph);
+  return report;
+}
+
+}  // namespace cairn

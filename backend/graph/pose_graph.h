@@ -1,0 +1,109 @@
+// The pose graph: vertices (robot poses) and edges (odometry, loop closures,
+// priors) with their measurements and information matrices. One graph is
+// either planar (SE2) or spatial (SE3), never both.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <type_traits>
+#include <unordered_map>
+#include <vector>
+
+#include "cairn/graph/geometry.h"
+
+namespace cairn {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+enum class EdgeKind { kOdometry, kLoopClosure, kPrior };
+const char* ToString(EdgeKind kind);
+
+// A pose's parameters, laid out as g2o writes them: (x, y, theta) in 2D,
+// (x, y, z, qx, qy, qz, qw) in 3D. Solvers optimise these arrays in place.
+using PoseParams = std::array<double, 7>;
+
+struct Vertex {
+  int64_t id = 0;
+  PoseParams x{};
+  bool fixed = false;
+};
+
+struct Edge {
+  EdgeKind kind = EdgeKind::kOdometry;
+  int64_t from = 0;  // the constrained vertex of a prior
+  int64_t to = -1;   // unused by a prior
+  PoseParams z{};    // measurement, laid out like a vertex
+  Matrix6d information = Matrix6d::Identity();  // 2D: top-left 3x3, rest zero once added
+
+  bool IsPrior() const { return kind == EdgeKind::kPrior; }
+};
+
+class PoseGraph {
+ public:
+  explicit PoseGraph(int dimension = 2);
+
+  int dimension() const { return dimension_; }
+  // Doubles in one pose's parameter block: 3 (SE2) or 7 (SE3).
+  int ParameterSize() const { return dimension_ == 2 ? 3 : 7; }
+  // Degrees of freedom of one pose: 3 (SE2) or 6 (SE3).
+  int TangentSize() const { return dimension_ == 2 ? 3 : 6; }
+
+  // Throws std::invalid_argument on a duplicate id. References to vertices
+  // stay valid as the graph grows (solvers keep pointers to the parameters).
+  Vertex& AddVertex(int64_t id, const PoseParams& x, bool fixed = false);
+  Vertex& AddVertex(int64_t id, const SE2& pose, bool fixed = false);
+  Vertex& AddVertex(int64_t id, const SE3& pose, bool fixed = false);
+  // Throws std::invalid_argument when an endpoint is missing, the
+  // information matrix is not symmetric positive definite, or a between-edge
+  // joins a vertex to itself.
+  void AddEdge(const Edge& edge);
+
+  bool HasVertex(int64_t id) const { return index_.count(id) != 0; }
+  // Position of a vertex in vertices(); throws std::out_of_range if absent.
+  size_t VertexIndex(int64_t id) const { return index_.at(id); }
+  Vertex& vertex(int64_t id) { return vertices_[index_.at(id)]; }
+  const Vertex& vertex(int64_t id) const { return vertices_[index_.at(id)]; }
+
+  std::deque<Vertex>& vertices() { return vertices_; }
+  const std::deque<Vertex>& vertices() const { return vertices_; }
+  const std::vector<Edge>& edges() const { return edges_; }
+  std::vector<Edge>& mutable_edges() { return edges_; }
+
+  size_t CountEdges(EdgeKind kind) const;
+  size_t CountFixed() const;
+
+  // The information block that applies to this graph's dimension.
+  Eigen::MatrixXd Information(const Edge& e) const;
+
+ private:
+  int dimension_;
+  std::deque<Vertex> vertices_;
+  std::unordered_map<int64_t, size_t> index_;
+  std::vector<Edge> edges_;
+};
+
+SE2 ToSE2(const PoseParams& p);
+SE3 ToSE3(const PoseParams& p);
+PoseParams ToParams(const SE2& pose);
+PoseParams ToParams(const SE3& pose);
+
+// ToSE2 or ToSE3 by type, for code written once for both dimensions.
+template <typename Pose>
+Pose ToPose(const PoseParams& p) {
+  if constexpr (std::is_same_v<Pose, SE2>) {
+    return ToSE2(p);
+  } else {
+    return ToSE3(p);
+  }
+}
+
+// The kind g2o files imply: consecutive ids are odometry, others loop closures.
+EdgeKind KindForBetween(int64_t from, int64_t to);
+
+// True when `info` is symmetric (to a relative 1e-9) and positive definite.
+bool IsSymmetricPositiveDefinite(const Eigen::MatrixXd& info);
+
+}  // namespace cairn

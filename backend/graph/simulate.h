@@ -1,0 +1,36 @@
+// A simulator of noisy pose graphs with known ground truth, for tests, demos
+// and benchmarks: a 2D Manhattan-world random walk and a 3D sphere.
+#pragma once
+
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "cairn/graph/pose_graph.h"
+
+namespace cairn {
+
+struct SimulationOptions {
+  int dimension = 2;               // 2: Manhattan grid walk, 3: sphere
+  int poses = 1000;
+  double translation_noise = 0.05;  // standard deviation per axis, m
+  double rotation_noise = 0.01;     // standard deviation per axis, rad
+  // Chance that a revisit of a place (2D) or a neighbour on the previous lap
+  // (3D) becomes a loop closure.
+  double loop_probability = 0.5;
+  int outliers = 0;                 // wrong loop closures added at random
+  int nodes_per_lap = 50;           // 3D: poses per circle of the sphere
+  double radius = 50.0;             // 3D: radius of the sphere, m
+  uint64_t seed = 1;
+};
+
+struct Simulation {
+  PoseGraph noisy{2};  // measurements with noise; estimate chained from odometry
+  PoseGraph truth{2};  // the same edges, vertices at their true poses
+  std::vector<std::pair<int64_t, int64_t>> outliers;  // the wrong loop closures
+};
+
+// Throws std::invalid_argument on options out of range.
+Simulation Simulate(const SimulationOptions& options);
+
+}  // namespace cairn

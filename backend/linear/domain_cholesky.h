@@ -1,0 +1,22 @@
+// The sparse Cholesky factorisation on two threads: the pose graph is cut
+// at a small separator into two halves, which two CHOLMOD instances
+// factorise at once; the separator is finished as a dense matrix. Exact,
+// with the same fill as one CHOLMOD factorisation in the same order.
+#pragma once
+
+#include <memory>
+
+#include "cairn/linear/sparse_cholesky.h"
+
+namespace cairn {
+
+// The estimated work (multiply-adds) under which one thread is kept: below
+// it, waking a second thread costs more than it saves.
+constexpr double kMinWorkToSplit = 2e7;
+
+// Splits when the estimated work is at least `min_work` and two threads
+// would finish in at most 3/4 of one's time; otherwise it is CHOLMOD's own
+// choice (CholeskyKind::kSupernodalOrSimplicial) on one thread, in the same order.
+std::unique_ptr<SparseCholesky> CreateDomainCholesky(double min_work = kMinWorkToSplit);
+
+}  // namespace cairn

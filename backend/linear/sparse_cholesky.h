@@ -1,0 +1,55 @@
+// Sparse Cholesky with a fixed pattern: the symbolic analysis (fill-reducing
+// ordering) once, then only numeric factorisations, as Gauss-Newton needs.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cairn/solvers/linear_solver.h"
+
+namespace cairn {
+
+class SparseCholesky {
+ public:
+  virtual ~SparseCholesky() = default;
+  static std::unique_ptr<SparseCholesky> Create(CholeskyKind kind);
+
+  // The upper triangle of a symmetric n x n matrix in compressed columns,
+  // rows sorted within each column. Called once. `block_sizes`, if not
+  // empty, splits the rows into dense diagonal blocks (one per pose): the
+  // fill-reducing ordering is then computed on the far smaller block graph.
+  virtual void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
+                       const std::vector<int>& block_sizes = {}) = 0;
+  // For a matrix that grew: the pattern of the last Analyze (or Extend) is
+  // the leading part of this one, which only adds columns (and rows) at the
+  // end. Keeps the elimination order, with the new unknowns eliminated
+  // last, and derives the rest of the analysis from it without any ordering
+  // work. False (nothing changed) when the pattern is not such an
+  // extension or the backend cannot extend: Analyze then.
+  virtual bool Extend(int /*n*/, const std::vector<int>& /*col_ptr*/,
+                      const std::vector<int>& /*rows*/, const std::vector<int>& /*block_sizes*/ = {}) {
+    return false;
+  }
+  // The matrix's values, in the order of `rows`; callers write into it.
+  virtual double* values() = 0;
+  // False when the matrix is not positive definite.
+  virtual bool Factorize() = 0;
+  // x = A^-1 b, with the last factorisation. x and b may not alias.
+  virtual void Solve(const double* b, double* x) = 0;
+  // Nonzeros of the factor (after the first Factorize).
+  virtual long FactorNonZeros() const = 0;
+  virtual bool IsSupernodal() const = 0;
+  // How the last Analyze chose to factorise, for reports.
+  virtual std::string Method() const { return IsSupernodal() ? "supernodal" : "simplicial"; }
+
+  // Reusing an ordering: a block permutation (block k is eliminated at
+  // position k) that the next Analyze takes instead of computing AMD (then
+  // postorders on its elimination tree, as it does AMD's); empty for AMD. Lets a graph that only grew keep its old ordering with the new
+  // poses appended. Backends that order internally (Eigen) ignore it.
+  virtual void SetBlockOrdering(const std::vector<int>& block_perm) {}
+  // The block permutation the last Analyze used; empty when unknown.
+  virtual std::vector<int> BlockOrdering() const { return {}; }
+};
+
+}  // namespace cairn

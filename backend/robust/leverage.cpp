@@ -1,0 +1,224 @@
+#include "cairn/robust/leverage.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SparseCholesky>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+
+#include "cairn/solvers/graph_factors.h"
+#include "cairn/factors/pose_manifold.h"
+
+namespace cairn {
+namespace {
+
+using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// The whitened residual of an edge and its Jacobians in the tangent spaces
+// of its vertices (one d x d block per vertex).
+struct Linearized {
+  Eigen::VectorXd r;
+  std::vector<Eigen::MatrixXd> jac;
+};
+
+Linearized Linearize(const PoseGraph& graph, const Edge& edge, const ceres::Manifold& manifold) {
+  const std::unique_ptr<ceres::CostFunction> cost(MakeCostFunction(graph, edge));
+  const int d = graph.TangentSize(), p = graph.ParameterSize();
+  std::vector<const double*> params = {graph.vertex(edge.from).x.data()};
+  if (!edge.IsPrior()) params.push_back(graph.vertex(edge.to).x.data());
+  std::vector<RowMajor> ambient(params.size(), RowMajor(d, p));
+  std::vector<double*> jac_ptrs;
+  for (RowMajor& a : ambient) jac_ptrs.push_back(a.data());
+  Linearized out;
+  out.r.resize(d);
+  if (!cost->Evaluate(params.data(), out.r.data(), jac_ptrs.data()))
+    throw std::runtime_error("an edge's residual could not be evaluated");
+  for (size_t k = 0; k < params.size(); ++k) {
+    RowMajor plus(p, d);
+    manifold.PlusJacobian(params[k], plus.data());
+    out.jac.push_back(ambient[k] * plus);
+  }
+  return out;
+}
+
+// The entries of A^{-1} on the pattern of A's Cholesky factor L (lower,
+// column-major, diagonal first in each column, rows ascending), by
+// Takahashi's recurrence from the last column back:
+//   Z_ij = -(1/L_jj) sum_{k>j} Z_ik L_kj   (i > j)
+//   Z_jj = (1/L_jj - sum_{k>j} Z_kj L_kj) / L_jj
+// Every Z_ik it needs lies on the pattern (the factor's pattern is chordal).
+class SelectedInverse {
+ public:
+  explicit SelectedInverse(const Eigen::SparseMatrix<double>& L)
+      : n_(static_cast<int>(L.cols())),
+        col_(L.outerIndexPtr(), L.outerIndexPtr() + L.cols() + 1),
+        row_(L.innerIndexPtr(), L.innerIndexPtr() + L.nonZeros()),
+        z_(L.nonZeros(), 0.0) {
+    const double* l = L.valuePtr();
+    for (int j = 0; j < n_; ++j)
+      if (col_[j] == col_[j + 1] || row_[col_[j]] != j ||
+          !std::is_sorted(row_.begin() + col_[j], row_.begin() + col_[j + 1]))
+        throw std::runtime_error("unexpected layout of the Cholesky factor");
+    for (int j = n_ - 1; j >= 0; --j) {
+      const int p0 = col_[j], p1 = col_[j + 1];
+      const double ljj = l[p0];
+      for (int a = p0 + 1; a < p1; ++a) {
+        double s = 0;
+        for (int b = p0 + 1; b < p1; ++b) s += At(row_[a], row_[b]) * l[b];
+        z_[a] = -s / ljj;
+      }
+      double s = 0;
+      for (int a = p0 + 1; a < p1; ++a) s += z_[a] * l[a];
+      z_[p0] = (1 / ljj - s) / ljj;
+    }
+  }
+
+  // Z_ik for a pair on the pattern (either order).
+  double At(int i, int k) const {
+    if (i < k) std::swap(i, k);
+    const auto begin = row_.begin() + col_[k], end = row_.begin() + col_[k + 1];
+    const auto it = std::lower_bound(begin, end, i);
+    if (it == end || *it != i) throw std::logic_error("selected inverse: entry off the pattern");
+    return z_[it - row_.begin()];
+  }
+
+ private:
+  int n_;
+  std::vector<int> col_, row_;
+  std::vector<double> z_;
+};
+
+// The normal matrix H = sum J^T J of the whole graph over the poses not
+// held for the gauge (d columns each), factorised: what both statistics
+// below read the poses' covariances from.
+class NormalEquations {
+ public:
+  explicit NormalEquations(const PoseGraph& graph)
+      : graph_(graph),
+        d_(graph.TangentSize()),
+        manifold_(graph.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold()) {
+    const std::vector<bool> held = HeldConstant(graph), touched = TouchedVertices(graph);
+    offset_.assign(graph.vertices().size(), -1);
+    for (size_t v = 0; v < offset_.size(); ++v)
+      if (touched[v] && !held[v]) {
+        offset_[v] = n_;
+        n_ += d_;
+      }
+    if (n_ == 0) return;
+    // Lower triangle.
+    std::vector<Eigen::Triplet<double>> triplets;
+    triplets.reserve(graph.edges().size() * 4 * d_ * d_);
+    for (const Edge& e : graph.edges()) {
+      const Linearized lin = Linearize(graph, e, *manifold_);
+      const int o[2] = {Offset(e.from), e.IsPrior() ? -1 : Offset(e.to)};
+      for (size_t a = 0; a < lin.jac.size(); ++a) {
+        if (o[a] < 0) continue;
+        for (size_t b = 0; b < lin.jac.size(); ++b) {
+          if (o[b] < 0 || o[b] > o[a]) continue;
+          const Eigen::MatrixXd h = lin.jac[a].transpose() * lin.jac[b];
+          for (int i = 0; i < d_; ++i)
+            for (int j = 0; j < d_; ++j)
+              if (o[a] + i >= o[b] + j) triplets.emplace_back(o[a] + i, o[b] + j, h(i, j));
+        }
+      }
+    }
+    Eigen::SparseMatrix<double> H(n_, n_);
+    H.setFromTriplets(triplets.begin(), triplets.end());
+    llt_.compute(H);
+    if (llt_.info() != Eigen::Success)
+      throw std::runtime_error("the information matrix is not positive definite");
+  }
+
+  int size() const { return n_; }
+  const Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower>& llt() const { return llt_; }
+
+  // A between-edge's residual and its Jacobian restricted to its variable
+  // poses (d x m, m = d or 2d), with the columns of H those poses take.
+  Linearized Restricted(const Edge& e, Eigen::MatrixXd* J, std::vector<int>* cols) const {
+    Linearized lin = Linearize(graph_, e, *manifold_);
+    J->resize(d_, 2 * d_);
+    cols->clear();
+    int m = 0;
+    for (int a = 0; a < 2; ++a) {
+      const int o = Offset(a == 0 ? e.from : e.to);
+      if (o < 0) continue;
+      J->middleCols(m, d_) = lin.jac[a];
+      for (int i = 0; i < d_; ++i) cols->push_back(o + i);
+      m += d_;
+    }
+    J->conservativeResize(d_, m);
+    return lin;
+  }
+
+ private:
+  int Offset(int64_t id) const { return offset_[graph_.VertexIndex(id)]; }
+
+  const PoseGraph& graph_;
+  int d_, n_ = 0;
+  std::unique_ptr<ceres::Manifold> manifold_;
+  std::vector<int> offset_;  // per vertex index: first column in H, -1 when held
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt_;
+};
+
+}  // namespace
+
+std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vector<size_t>& edges) {
+  std::vector<double> out(edges.size(), std::numeric_limits<double>::quiet_NaN());
+  const NormalEquations normal(graph);
+  if (normal.size() == 0) return out;
+  const int d = graph.TangentSize();
+  const Eigen::SparseMatrix<double> L = normal.llt().matrixL().nestedExpression();
+  const SelectedInverse z(L);
+  // The factor is of P H P^T: Sigma(p, q) = Z(perm[p], perm[q]).
+  const Eigen::VectorXi perm = normal.llt().permutationP().indices();
+  Eigen::MatrixXd J;
+  std::vector<int> cols;
+  for (size_t k = 0; k < edges.size(); ++k) {
+    const Edge& e = graph.edges()[edges[k]];
+    if (e.IsPrior()) throw std::invalid_argument("DeletedResidualChi2: a prior is no between-edge");
+    // J restricted to the variable poses, and those poses' joint covariance.
+    const Linearized lin = normal.Restricted(e, &J, &cols);
+    const int m = static_cast<int>(cols.size());
+    Eigen::MatrixXd S(m, m);
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j <= i; ++j) S(i, j) = S(j, i) = z.At(perm[cols[i]], perm[cols[j]]);
+    const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(d, d) - J * S * J.transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(M);
+    // 1 - leverage: near 0, the edge alone decides a direction.
+    if (eig.info() != Eigen::Success || eig.eigenvalues().minCoeff() < 1e-9) continue;
+    const Eigen::VectorXd u = eig.eigenvectors().transpose() * lin.r;
+    out[k] = (u.array().square() / eig.eigenvalues().array()).sum();
+  }
+  return out;
+}
+
+std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::vector<Edge>& candidates) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<InnovationStat> out(candidates.size(), InnovationStat{nan, nan});
+  const NormalEquations normal(graph);
+  const int n = normal.size(), d = graph.TangentSize();
+  if (n == 0) return out;
+  Eigen::MatrixXd J;
+  std::vector<int> cols;
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    const Linearized lin = normal.Restricted(candidates[k], &J, &cols);
+    const int m = static_cast<int>(cols.size());
+    // The two poses' joint covariance: H X = E for their unit columns.
+    Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n, m);
+    for (int i = 0; i < m; ++i) E(cols[i], i) = 1;
+    const Eigen::MatrixXd X = normal.llt().solve(E);
+    Eigen::MatrixXd S(m, m);
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j < m; ++j) S(i, j) = X(cols[i], j);
+    S = (S + S.transpose()).eval() / 2;
+    const Eigen::MatrixXd P = J * S * J.transpose();
+    const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(d, d) + P;
+    out[k].chi2 = lin.r.dot(M.ldlt().solve(lin.r));
+    out[k].spread = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(P).eigenvalues().maxCoeff();
+  }
+  return out;
+}
+
+}  // namespace cairn

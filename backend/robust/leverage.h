@@ -1,0 +1,44 @@
+// Leave-one-out statistics of a pose graph's edges at its current estimate
+// (normally a least-squares optimum): how much chi2 would fall if one edge
+// were deleted and the graph re-solved, without re-solving. The estimate can
+// bend to fit a wrong edge; its own residual is then small, but deleting it
+// releases the tension it put on the rest of the graph. The deleted-residual
+// statistic measures that tension.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "cairn/graph/pose_graph.h"
+
+namespace cairn {
+
+// For each listed edge (indices into graph.edges(), between-edges), the
+// deleted-residual statistic  r^T (I - J Sigma J^T)^{-1} r : r the edge's
+// whitened residual, J its whitened Jacobian in both poses' tangent spaces,
+// Sigma their joint covariance (the inverse of the Gauss-Newton information
+// matrix of the whole graph, with the solvers' gauge). For a linear problem
+// it is exactly the fall of the optimal chi2 when the edge is deleted; an
+// edge that was right is chi2-distributed with 3 (2D) or 6 (3D) degrees of
+// freedom. NaN when deleting the edge would leave a direction unobserved
+// (it was the only constraint on it): there is then nothing to compare with. Throws std::runtime_error
+// when the information matrix is not positive definite.
+//
+// Sigma's entries on the pattern of the sparse Cholesky factor (which holds
+// every edge's pose pairs) come from Takahashi's recurrence, so the cost is
+// about one factorisation, not one solve per edge.
+std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vector<size_t>& edges);
+
+// For loop closures not in the graph (between-edges of its vertices): the
+// innovation statistic r^T (I + J Sigma J^T)^{-1} r, how much the optimal
+// chi2 would rise (linear problem) if the edge were added, with Sigma the
+// exact joint covariance of its two poses (H X = E solved for their
+// columns), and the largest eigenvalue of J Sigma J^T (`spread`: how loosely
+// the graph holds the pair relative to the edge's own covariance).
+struct InnovationStat {
+  double chi2;
+  double spread;
+};
+std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::vector<Edge>& candidates);
+
+}  // namespace cairn

@@ -1,0 +1,111 @@
+// Wrong loop closures: adding them on purpose (to measure robustness) and
+// finding them (graduated non-convexity with a truncated least-squares cost),
+// with either solver doing the inner weighted least-squares solves.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <utility>
+#include <vector>
+
+#include "cairn/graph/pose_graph.h"
+#include "cairn/solvers/solve_result.h"
+
+namespace cairn {
+
+using VertexPair = std::pair<int64_t, int64_t>;
+
+// Adds `count` loop closures between random pairs of distinct, non-consecutive
+// vertices not yet joined, each with a random measurement (translation
+// uniform within the largest loop-closure translation, rotation uniform) and
+// the information of the graph's median loop closure (by trace; the median
+// odometry edge's when there is none). Returns the pairs added, in order.
+// Throws std::invalid_argument when the graph is too small to take them.
+std::vector<VertexPair> AddWrongLoopClosures(PoseGraph& graph, int count, uint64_t seed);
+
+// The p-quantile of the chi-squared distribution with `dof` degrees of
+// freedom, by bisection on its survival function (closed form for integer
+// dof), to a relative 1e-12.
+double ChiSquaredQuantile(double p, int dof);
+
+// Local pairwise consistency: two loop closures whose ends both lie within
+// `window` ids of each other's form a short cycle with the odometry between
+// their ends (a->c by odometry, c->d by the second closure, d->b by
+// odometry, back to a by the first). They agree when the cycle's error, in
+// the first closure's frame, is within `threshold_chi2` of its covariance
+// (the measurements' covariances propagated to first order). Returns, per
+// loop closure (in edge order), how many such neighbours agree with it. A
+// pair is skipped when an odometry step between their ends is missing.
+// Good loop closures usually come in runs (a place revisited is seen from
+// several poses in a row); a wrong one rarely has an agreeing neighbour.
+std::vector<int> LocalLoopClosureSupport(const PoseGraph& graph, int window,
+                                         double threshold_chi2);
+
+// The chi2 threshold for `loop_closures` loop closures tested at once, so
+// that all the good ones pass with probability `confidence` (Bonferroni):
+// the 1 - (1 - confidence) / n quantile of chi2 with `dof` degrees of freedom.
+// Throws std::invalid_argument unless 0 < confidence < 1.
+double LoopClosureThreshold(double confidence, int dof, size_t loop_closures);
+
+struct OutlierRejectionOptions {
+  // A loop closure whose chi2 exceeds this is an outlier to the truncated
+  // cost; 0 takes LoopClosureThreshold(confidence, 3 or 6, loop closures).
+  double threshold_chi2 = 0;
+  double confidence = 0.999;
+  // GNC's schedule: mu grows by this factor between weighted solves.
+  double mu_factor = 1.4;
+  int max_rounds = 1000;
+  // Iterations of each weighted solve inside GNC (0: the solver's own
+  // limit); the weights move on before the estimate has settled. The last
+  // solves, without the rejected loop closures, always run to convergence.
+  int inner_iterations = 0;
+  // Loop closures that a neighbour within this many ids agrees with
+  // (LocalLoopClosureSupport) go through GNC first, alone; 0: no such stage.
+  int consistency_window = 5;
+  // After that stage, GNC over all loop closures starts where a residual
+  // beyond this many times the threshold weighs 0 (mu = 1 / (factor - 1)).
+  double restart_chi2_factor = 10;
+  // ... and is repeated from its own result, at most this many times, until
+  // the loop closures it keeps no longer change.
+  int max_passes = 10;
+  // After GNC: reject, one at a time, kept loop closures whose deletion
+  // would lower chi2 by more than the threshold (see SolveRejectingOutliers).
+  bool verify = true;
+  int max_verify_rounds = 100;
+  // After verification: take back rejected loop closures (chi2 within
+  // readmit_reach c^2) whose innovation statistic is within c^2 times the
+  // a-posteriori variance factor (at most 1), then verify again.
+  bool readmit = true;
+  double readmit_reach = 100;
+  bool verbose = false;
+};
+
+struct OutlierRejectionResult {
+  SolveResult solve;               // the last solve, on the inliers alone
+  std::vector<VertexPair> rejected;  // loop closures found wrong, in file order
+  int rounds = 0;                  // solves in all (GNC's, the last ones)
+  int verified = 0;                // loop closures rejected by the verification
+  double threshold_chi2 = 0;
+};
+
+// A solve of a graph in place (weights are folded into the information),
+// of at most `max_iterations` iterations (0: the solver's own limit).
+using GraphSolver = std::function<SolveResult(PoseGraph& graph, int max_iterations)>;
+
+// Graduated non-convexity (Yang et al. 2020) for the truncated least squares
+// cost sum_i min(chi2_i, c^2) over loop closures; odometry and priors are
+// trusted. Starts from the graph's estimate (mu from its largest residual),
+// then reweights loop closures between solves while the surrogate cost moves
+// from convex to truncated. The weights end binary: those at 0 that still do
+// not fit are rejected, and a solve without them follows. Then verification:
+// GNC's weights judge each loop closure by its residual at the estimate, and
+// the estimate may have bent to fit a wrong one; the deleted-residual
+// statistic (backend/robust/leverage.h) predicts how much chi2 would fall without
+// it. While some kept loop closure's exceeds the threshold, the largest one
+// is rejected too and the rest re-solved: under the truncated cost, a loop
+// closure whose deletion saves more than c^2 costs more than leaving it out.
+// The estimate of the last solve is left in `graph`.
+OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolver& solve,
+                                              const OutlierRejectionOptions& options = {});
+
+}  // namespace cairn

@@ -1,0 +1,287 @@
+#include "cairn/solvers/ceres_solver.h"
+
+#include <ceres/iteration_callback.h>
+#include <ceres/solver.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <iostream>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "cairn/graph/chi2.h"
+#include "cairn/linear/serial_scope.h"
+#include "cairn/solvers/graph_factors.h"
+#include "cholmod.h"
+#include "cairn/factors/pose_manifold.h"
+
+namespace cairn {
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+class TraceCallback : public ceres::IterationCallback {
+ public:
+  TraceCallback(SolveResult* result, bool verbose) : result_(result), verbose_(verbose) {}
+
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    IterationRecord r;
+    r.iteration = s.iteration;
+    r.chi2 = 2 * s.cost;
+    r.step_norm = s.step_norm;
+    r.time_s = s.cumulative_time_in_seconds;
+    r.accepted = s.iteration == 0 || s.step_is_successful;
+    r.linear_solver_time_s = s.step_solver_time_in_seconds;
+    result_->trace.push_back(r);
+    if (verbose_) std::cerr << FormatIteration(r) << "\n";
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  SolveResult* result_;
+  bool verbose_;
+};
+
+std::string Termination(ceres::TerminationType type) {
+  switch (type) {
+    case ceres::CONVERGENCE:
+    case ceres::USER_SUCCESS: return "convergence";
+    case ceres::NO_CONVERGENCE: return "no_convergence";
+    case ceres::FAILURE:
+    case ceres::USER_FAILURE: return "failure";
+  }
+  return "failure";
+}
+
+// Below this many flops per nonzero of the factor, the supernodes are too
+// small for CHOLMOD's dense kernels to pay in Ceres: city10000 (83) and
+// parking-garage (54) factor faster simplicial, sphere2500 (252) supernodal.
+constexpr double kSupernodalFlopsPerNonzero = 150;
+
+ceres::SparseLinearAlgebraLibraryType SimplicialLibrary() {
+#ifndef CERES_NO_CXSPARSE
+  return ceres::CX_SPARSE;  // measured a little ahead of Eigen's LDLT
+#else
+  return ceres::EIGEN_SPARSE;
+#endif
+}
+
+ceres::SparseLinearAlgebraLibraryType SparseLibraryFor(const PoseGraph& graph,
+                                                       CeresOptions::SparseLibrary choice) {
+  switch (choice) {
+    case CeresOptions::SparseLibrary::kSuiteSparse: return ceres::SUITE_SPARSE;
+    case CeresOptions::SparseLibrary::kEigen: return ceres::EIGEN_SPARSE;
+    case CeresOptions::SparseLibrary::kCxSparse: return ceres::CX_SPARSE;
+    case CeresOptions::SparseLibrary::kAuto: break;
+  }
+  return EstimateFactor(graph).FlopsPerNonzero() >= kSupernodalFlopsPerNonzero
+             ? ceres::SUITE_SPARSE
+             : SimplicialLibrary();
+}
+
+}  // namespace
+
+FactorEstimate EstimateFactor(const PoseGraph& graph) {
+  // The pose-level pattern: one entry per pair of vertices an edge joins.
+  std::vector<std::vector<int>> columns(graph.vertices().size());
+  for (const Edge& e : graph.edges()) {
+    int i = static_cast<int>(graph.VertexIndex(e.from));
+    int j = e.IsPrior() ? i : static_cast<int>(graph.VertexIndex(e.to));
+    if (i > j) std::swap(i, j);
+    columns[j].push_back(i);  // upper triangle: row <= column
+  }
+  const int n = static_cast<int>(columns.size());
+  size_t nnz = 0;
+  for (int j = 0; j < n; ++j) {
+    columns[j].push_back(j);
+    std::sort(columns[j].begin(), columns[j].end());
+    columns[j].erase(std::unique(columns[j].begin(), columns[j].end()), columns[j].end());
+    nnz += columns[j].size();
+  }
+  FactorEstimate est;
+  if (n == 0) return est;
+  cholmod_common cc;
+  cholmod_start(&cc);
+  cc.nmethods = 1;
+  cc.method[0].ordering = CHOLMOD_AMD;
+  cc.supernodal = CHOLMOD_SIMPLICIAL;  // the counts are all we want
+  cholmod_sparse* a = cholmod_allocate_sparse(n, n, nnz, 1, 1, 1, CHOLMOD_PATTERN, &cc);
+  if (a) {
+    auto* p = static_cast<int*>(a->p);
+    auto* rows = static_cast<int*>(a->i);
+    size_t k = 0;
+    for (int j = 0; j < n; ++j) {
+      p[j] = static_cast<int>(k);
+      for (int r : columns[j]) rows[k++] = r;
+    }
+    p[n] = static_cast<int>(k);
+    cholmod_factor* l = cholmod_analyze(a, &cc);
+    if (l) {
+      // Each pose-level entry is a dense b x b block: nonzeros grow by b^2,
+      // flops (a sum of products of column counts) by b^3.
+      const double b = graph.TangentSize();
+      est.size = n * b;
+      est.nonzeros = cc.lnz * b * b;
+      est.flops = cc.fl * b * b * b;
+      cholmod_free_factor(&l, &cc);
+    }
+    cholmod_free_sparse(&a, &cc);
+  }
+  cholmod_finish(&cc);
+  return est;
+}
+
+CeresOptions::Method ParseCeresMethod(const std::string& text) {
+  if (text == "lm" || text == "levenberg-marquardt") return CeresOptions::Method::kLevenbergMarquardt;
+  if (text == "dogleg") return CeresOptions::Method::kDogleg;
+  throw std::invalid_argument("unknown method '" + text + "' (expected lm or dogleg)");
+}
+
+CeresOptions::SparseLibrary ParseSparseLibrary(const std::string& text) {
+  if (text == "auto") return CeresOptions::SparseLibrary::kAuto;
+  if (text == "suitesparse") return CeresOptions::SparseLibrary::kSuiteSparse;
+  if (text == "eigen") return CeresOptions::SparseLibrary::kEigen;
+  if (text == "cxsparse") return CeresOptions::SparseLibrary::kCxSparse;
+  throw std::invalid_argument("unknown sparse library '" + text +
+                              "' (expected auto, suitesparse, eigen or cxsparse)");
+}
+
+CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_closure_loss)
+    : manifold_(graph.dimension() == 2 ? factors::MakeSE2Manifold()
+                                       : factors::MakeSE3Manifold()),
+      loop_closure_loss_(MakeLoss(loop_closure_loss)) {
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_ = std::make_unique<ceres::Problem>(po);
+
+  // The same parameters and gauge as the Gauss-Newton path (graph_factors.h).
+  const std::vector<bool> touched = TouchedVertices(graph);
+  const std::vector<bool> held = HeldConstant(graph);
+  const int size = graph.ParameterSize();
+  for (size_t i = 0; i < graph.vertices().size(); ++i) {
+    if (!touched[i]) continue;
+    Vertex& v = graph.vertices()[i];
+    if (size == 7) {
+      // The factors invert quaternions by conjugation, right only for unit ones.
+      Eigen::Map<Eigen::Quaterniond>(v.x.data() + 3).normalize();
+    }
+    problem_->AddParameterBlock(v.x.data(), size, manifold_.get());
+    if (held[i]) {
+      problem_->SetParameterBlockConstant(v.x.data());
+      if (!v.fixed && !gauge_) gauge_ = v.id;  // the first component's
+    }
+  }
+
+  for (const Edge& e : graph.edges()) {
+    ceres::LossFunction* loss =
+        e.kind == EdgeKind::kLoopClosure ? loop_closure_loss_.get() : nullptr;
+    double* xi = graph.vertex(e.from).x.data();
+    if (e.IsPrior()) {
+      problem_->AddResidualBlock(MakeCostFunction(graph, e), loss, xi);
+    } else {
+      problem_->AddResidualBlock(MakeCostFunction(graph, e), loss, xi,
+                                 graph.vertex(e.to).x.data());
+    }
+  }
+}
+
+int ResolveThreads(int requested) {
+  return requested > 0 ? requested
+                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+ceres::Solver::Options MakeSolverOptions(const PoseGraph& graph, const CeresOptions& options) {
+  ceres::Solver::Options so;
+  so.minimizer_type = ceres::TRUST_REGION;
+  so.trust_region_strategy_type = options.method == CeresOptions::Method::kDogleg
+                                      ? ceres::DOGLEG
+                                      : ceres::LEVENBERG_MARQUARDT;
+  so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  so.sparse_linear_algebra_library_type = SparseLibraryFor(graph, options.sparse_library);
+  so.max_num_iterations = options.max_iterations;
+  so.max_solver_time_in_seconds = options.max_time_s;
+  so.num_threads = ResolveThreads(options.threads);
+  so.function_tolerance = options.function_tolerance;
+  so.gradient_tolerance = options.gradient_tolerance;
+  so.parameter_tolerance = options.parameter_tolerance;
+  so.jacobi_scaling = options.jacobi_scaling;
+  so.initial_trust_region_radius = options.initial_trust_region_radius;
+  so.min_lm_diagonal = options.min_lm_diagonal;
+  so.use_postordering = options.use_postordering;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  return so;
+}
+
+SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  SolveResult result;
+  result.solver = "ceres";
+
+  // A non-finite start would only make Ceres fail deep inside; say which
+  // vertex it is instead.
+  if (const auto bad = FirstNonFiniteVertex(graph)) {
+    result.initial_chi2 = result.final_chi2 = std::numeric_limits<double>::quiet_NaN();
+    result.termination = "failure";
+    result.message = "vertex " + std::to_string(*bad) + " has a non-finite estimate";
+    result.time_s = Seconds(start);
+    return result;
+  }
+  CeresGraphProblem graph_problem(graph, options.loop_closure_loss);
+  // After the problem is built: that normalises the quaternions g2o would.
+  result.initial_chi2 = Chi2(graph);
+  // The start, kept to fall back on should the solve end worse or non-finite.
+  std::vector<PoseParams> start_estimate;
+  start_estimate.reserve(graph.vertices().size());
+  for (const Vertex& v : graph.vertices()) start_estimate.push_back(v.x);
+
+  ceres::Solver::Options so = MakeSolverOptions(graph, options);
+  result.linear_solver = std::string("SPARSE_NORMAL_CHOLESKY/") +
+                         ceres::SparseLinearAlgebraLibraryTypeToString(so.sparse_linear_algebra_library_type);
+  TraceCallback callback(&result, options.verbose);
+  so.callbacks.push_back(&callback);
+  result.setup_time_s = Seconds(start);
+
+  ceres::Solver::Summary summary;
+  SerialLinearAlgebraScope serial;  // for CHOLMOD and BLAS inside Ceres as for ours
+  ceres::Solve(so, &graph_problem.problem(), &summary);
+
+  result.final_chi2 = Chi2(graph);
+  const bool finite = !FirstNonFiniteVertex(graph) && std::isfinite(result.final_chi2);
+  // Ceres's own cost includes the robust loss, which g2o's chi2 does not:
+  // that is the objective that must not rise.
+  const bool worse = summary.final_cost > summary.initial_cost;
+  if (!finite || worse) {
+    size_t k = 0;
+    for (Vertex& v : graph.vertices()) v.x = start_estimate[k++];
+    result.final_chi2 = Chi2(graph);
+    result.termination = "failure";
+    result.message = std::string(finite ? "the solve ended with a higher cost"
+                                        : "the solve ended with a non-finite estimate") +
+                     "; the starting estimate is kept (Ceres: " + summary.message + ")";
+    result.converged = false;
+    result.usable = std::isfinite(result.final_chi2);
+    result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+    result.time_s = Seconds(start);
+    return result;
+  }
+  // Ceres counts its starting point (iteration 0) as a successful step.
+  result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
+  result.linearize_time_s = summary.jacobian_evaluation_time_in_seconds;
+  result.linear_solver_time_s = summary.linear_solver_time_in_seconds;
+  result.termination = Termination(summary.termination_type);
+  result.message = summary.message;
+  result.converged = summary.termination_type == ceres::CONVERGENCE;
+  result.usable = summary.IsSolutionUsable();
+  result.time_s = Seconds(start);
+  return result;
+}
+
+}  // namespace cairn

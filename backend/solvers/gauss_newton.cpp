@@ -1,0 +1,858 @@
+#include "cairn/solvers/gauss_newton.h"
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <stdexcept>
+#include <thread>
+
+#include "cairn/linear/parallel.h"
+#include "cairn/linear/sparse_cholesky.h"
+#include "cairn/linear/serial_scope.h"
+
+namespace cairn {
+
+using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+struct GaussNewtonProblem::Block {
+  double* values;
+  int size;     // ambient
+  int tangent;  // local
+  const ceres::Manifold* manifold;
+  bool constant = false;
+  int offset = -1;  // first row of this block in H; -1 when constant
+  int variable = -1;
+};
+
+struct GaussNewtonProblem::Residual {
+  std::unique_ptr<ceres::CostFunction> cost;
+  std::unique_ptr<ceres::LossFunction> loss;
+  std::vector<int> blocks;
+};
+
+// Everything a solve needs, allocated once before the first iteration.
+struct GaussNewtonProblem::Workspace {
+  // Per residual: its values, and for each parameter block the ambient
+  // Jacobian (rows x size, Ceres's row-major layout) and the local one.
+  // Slot slot_start[k] + p is residual k's p-th parameter block.
+  std::vector<int> residual_offset;  // into r
+  std::vector<int> slot_start;
+  std::vector<int> jac_ambient_off;  // per slot, into jac_ambient; -1 for a constant block
+  std::vector<int> jac_local_off;    // per slot, into jac_local
+  std::vector<double> r, jac_ambient, jac_local;
+  std::vector<double> chi2_terms;                  // per residual, rho(|r|^2)
+  // Per variable block: the manifold's PlusJacobian (size x tangent).
+  std::vector<int> plus_jac_off;
+  std::vector<double> plus_jac;
+  // H's upper triangle, block by block: for block (r, c) with r <= c,
+  // col_start[k + j] is where column j of the block begins in the values,
+  // at the first row of block r.
+  std::vector<int> col_start;
+  struct Contribution {
+    // H(r, c) += Jp^T Jq, Jp and Jq (m rows) at these offsets in jac_local.
+    int jp, jq, m;
+  };
+  struct HBlock {
+    int row_block, col_block, start;  // start: index into col_start
+    int term_begin, term_end;         // its contributions, in `terms`
+  };
+  std::vector<HBlock> h_blocks;  // by column block, then row block
+  std::vector<Contribution> terms;
+  // Per variable v, gradient_terms[gradient_start[v] ...] are the (residual,
+  // p) whose J_p^T r add to its part of b.
+  std::vector<int> gradient_start;
+  std::vector<std::pair<int, int>> gradient_terms;
+  std::vector<int> diagonal;  // value index of each H(i, i)
+  std::vector<double> diagonal_saved;
+  std::vector<double> b, dx, x_saved, b_saved;
+  std::unique_ptr<SparseCholesky> cholesky;
+  std::vector<int> variables;  // non-constant blocks, in H's order
+  CholeskyKind linear_solver = CholeskyKind::kAuto;
+  int n = 0;
+  int max_tangent = 1, max_size = 1;
+  size_t max_arity = 1;
+};
+
+GaussNewtonProblem::GaussNewtonProblem() = default;
+GaussNewtonProblem::~GaussNewtonProblem() = default;
+
+int GaussNewtonProblem::TangentDimension() const { return ws_ ? ws_->n : 0; }
+long GaussNewtonProblem::FactorNonZeros() const { return ws_ ? ws_->cholesky->FactorNonZeros() : 0; }
+CholeskyKind GaussNewtonProblem::LinearSolver() const {
+  return ws_ ? ws_->linear_solver : CholeskyKind::kAuto;
+}
+
+int GaussNewtonProblem::NumParameterBlocks() const { return static_cast<int>(blocks_.size()); }
+int GaussNewtonProblem::NumResidualBlocks() const { return static_cast<int>(residuals_.size()); }
+
+void GaussNewtonProblem::AddParameterBlock(double* values, int size,
+                                           const ceres::Manifold* manifold) {
+  auto it = block_index_.find(values);
+  if (it != block_index_.end()) {
+    Block& b = blocks_[it->second];
+    if (b.size != size) throw std::invalid_argument("parameter block re-added with another size");
+    if (manifold) {
+      b.manifold = manifold;
+      b.tangent = manifold->TangentSize();
+    }
+    return;
+  }
+  if (manifold && manifold->AmbientSize() != size)
+    throw std::invalid_argument("manifold's ambient size differs from the block's size");
+  block_index_.emplace(values, static_cast<int>(blocks_.size()));
+  blocks_.push_back(Block{values, size, manifold ? manifold->TangentSize() : size, manifold});
+}
+
+void GaussNewtonProblem::SetParameterBlockConstant(double* values) {
+  auto it = block_index_.find(values);
+  if (it == block_index_.end()) throw std::invalid_argument("unknown parameter block");
+  blocks_[it->second].constant = true;
+}
+
+void GaussNewtonProblem::AddResidualBlock(ceres::CostFunction* cost, ceres::LossFunction* loss,
+                                          const std::vector<double*>& blocks) {
+  Residual r;
+  r.cost.reset(cost);
+  r.loss.reset(loss);
+  const auto& sizes = cost->parameter_block_sizes();
+  if (sizes.size() != blocks.size())
+    throw std::invalid_argument("cost function takes a different number of parameter blocks");
+  for (size_t k = 0; k < blocks.size(); ++k) {
+    AddParameterBlock(blocks[k], sizes[k]);
+    r.blocks.push_back(block_index_.at(blocks[k]));
+  }
+  residuals_.push_back(std::move(r));
+}
+
+namespace {
+
+// Chord steps start once a full step lowers chi2 by less than this fraction:
+// by then the problem is close to quadratic and H changes little.
+constexpr double kChordThreshold = 2e-2;
+// Ceres's defaults: a step must achieve this share of the decrease its
+// linear model predicted, and the trust region stays within [1e-32, 1e16].
+constexpr double kMinRelativeDecrease = 1e-3;
+constexpr double kMinDamping = 1e-16, kMaxDamping = 1e32;
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+// The small dense products of the inner loops, with sizes known at compile
+// time for the poses' blocks (2D: 3 residuals, 3 parameters, 3 tangent; 3D:
+// 6, 7, 6), where Eigen unrolls them; any other size takes the general path.
+// On city10000 the general path spent more in these products than in the
+// factors' autodiff.
+// jl = ja * plus: the local (tangent) Jacobian, m x t, from the ambient one.
+void LocalJacobian(const double* ja, const double* plus, double* jl, int m, int size, int t) {
+  if (m == 3 && size == 3 && t == 3) {
+    using J = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+    Eigen::Map<J>(jl).noalias() = Eigen::Map<const J>(ja) * Eigen::Map<const J>(plus);
+  } else if (m == 6 && size == 7 && t == 6) {
+    Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(jl).noalias() =
+        Eigen::Map<const Eigen::Matrix<double, 6, 7, Eigen::RowMajor>>(ja) *
+        Eigen::Map<const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>>(plus);
+  } else {
+    Eigen::Map<RowMatrix>(jl, m, t).noalias() =
+        Eigen::Map<const RowMatrix>(ja, m, size) * Eigen::Map<const RowMatrix>(plus, size, t);
+  }
+}
+
+// g += jp' r, jp m x t.
+void AddGradient(const double* jp, const double* r, double* g, int m, int t) {
+  if (m == 3 && t == 3) {
+    Eigen::Map<Eigen::Vector3d>(g).noalias() +=
+        Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(jp).transpose() *
+        Eigen::Map<const Eigen::Vector3d>(r);
+  } else if (m == 6 && t == 6) {
+    Eigen::Map<Eigen::Matrix<double, 6, 1>>(g).noalias() +=
+        Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(jp).transpose() *
+        Eigen::Map<const Eigen::Matrix<double, 6, 1>>(r);
+  } else {
+    Eigen::Map<Eigen::VectorXd>(g, t).noalias() +=
+        Eigen::Map<const RowMatrix>(jp, m, t).transpose() * Eigen::Map<const Eigen::VectorXd>(r, m);
+  }
+}
+
+// acc (tr x tc, column-major with leading dimension ld) += jp' jq.
+void AddOuter(const double* jp, const double* jq, double* acc, int ld, int m, int tr, int tc) {
+  if (m == 3 && tr == 3 && tc == 3) {
+    using J = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+    Eigen::Map<Eigen::Matrix3d, 0, Eigen::OuterStride<>>(acc, 3, 3, Eigen::OuterStride<>(ld))
+        .noalias() += Eigen::Map<const J>(jp).transpose() * Eigen::Map<const J>(jq);
+  } else if (m == 6 && tr == 6 && tc == 6) {
+    using J = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
+    Eigen::Map<Eigen::Matrix<double, 6, 6>, 0, Eigen::OuterStride<>>(acc, 6, 6,
+                                                                     Eigen::OuterStride<>(ld))
+        .noalias() += Eigen::Map<const J>(jp).transpose() * Eigen::Map<const J>(jq);
+  } else {
+    Eigen::Map<Eigen::MatrixXd, 0, Eigen::OuterStride<>>(acc, tr, tc, Eigen::OuterStride<>(ld))
+        .noalias() += Eigen::Map<const RowMatrix>(jp, m, tr).transpose() *
+                      Eigen::Map<const RowMatrix>(jq, m, tc);
+  }
+}
+
+double RhoOf(const ceres::LossFunction* loss, double s, double* weight) {
+  if (!loss) {
+    if (weight) *weight = 1.0;
+    return s;
+  }
+  double rho[3];
+  loss->Evaluate(s, rho);
+  if (weight) *weight = rho[1];
+  return rho[0];
+}
+
+}  // namespace
+
+double GaussNewtonProblem::Chi2() {
+  double sum = 0;
+  std::vector<double> r;
+  std::vector<const double*> params;
+  for (const Residual& res : residuals_) {
+    r.resize(res.cost->num_residuals());
+    params.clear();
+    for (int b : res.blocks) params.push_back(blocks_[b].values);
+    if (!res.cost->Evaluate(params.data(), r.data(), nullptr))
+      return std::numeric_limits<double>::quiet_NaN();
+    double s = 0;
+    for (double v : r) s += v * v;
+    sum += RhoOf(res.loss.get(), s, nullptr);
+  }
+  return sum;
+}
+
+void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
+  pool_ = std::make_unique<ThreadPool>(
+      options.threads > 0 ? options.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  // A caller that only added to the problem (and says so with an ordering
+  // hint) keeps the old analysis, extended, when the new pattern allows.
+  std::unique_ptr<SparseCholesky> kept;
+  std::vector<int> kept_variables;
+  CholeskyKind kept_kind = CholeskyKind::kAuto;
+  if (ws_ && ws_->cholesky && !ordering_hint_.empty()) {
+    kept = std::move(ws_->cholesky);
+    kept_variables = std::move(ws_->variables);
+    kept_kind = ws_->linear_solver;
+  }
+  last_analysis_extended_ = false;
+  ws_ = std::make_unique<Workspace>();
+  Workspace& w = *ws_;
+
+  // Variables: non-constant blocks that some residual touches, in order.
+  std::vector<bool> used(blocks_.size(), false);
+  for (const Residual& r : residuals_)
+    for (int b : r.blocks) used[b] = true;
+  std::vector<int>& variables = w.variables;
+  for (size_t i = 0; i < blocks_.size(); ++i) {
+    Block& b = blocks_[i];
+    b.offset = -1;
+    b.variable = -1;
+    if (b.constant || !used[i]) continue;
+    b.variable = static_cast<int>(variables.size());
+    b.offset = w.n;
+    w.n += b.tangent;
+    variables.push_back(static_cast<int>(i));
+  }
+  const int nvar = static_cast<int>(variables.size());
+  for (const Block& b : blocks_) {
+    w.max_tangent = std::max(w.max_tangent, b.tangent);
+    w.max_size = std::max(w.max_size, b.size);
+  }
+  for (const Residual& r : residuals_) w.max_arity = std::max(w.max_arity, r.blocks.size());
+
+  // Residual and Jacobian storage.
+  int r_total = 0, ja_total = 0, jl_total = 0, slots = 0;
+  w.residual_offset.resize(residuals_.size());
+  w.slot_start.resize(residuals_.size() + 1);
+  for (size_t k = 0; k < residuals_.size(); ++k) {
+    w.slot_start[k] = slots;
+    slots += static_cast<int>(residuals_[k].blocks.size());
+  }
+  w.slot_start[residuals_.size()] = slots;
+  w.jac_ambient_off.resize(slots);
+  w.jac_local_off.resize(slots);
+  for (size_t k = 0; k < residuals_.size(); ++k) {
+    const int m = residuals_[k].cost->num_residuals();
+    w.residual_offset[k] = r_total;
+    r_total += m;
+    for (size_t p = 0; p < residuals_[k].blocks.size(); ++p) {
+      const Block& blk = blocks_[residuals_[k].blocks[p]];
+      const int slot = w.slot_start[k] + static_cast<int>(p);
+      w.jac_ambient_off[slot] = blk.variable >= 0 ? ja_total : -1;
+      w.jac_local_off[slot] = blk.variable >= 0 ? jl_total : -1;
+      if (blk.variable >= 0) {
+        ja_total += m * blk.size;
+        jl_total += m * blk.tangent;
+      }
+    }
+  }
+  w.r.resize(r_total);
+  w.jac_ambient.resize(ja_total);
+  w.jac_local.resize(jl_total);
+  w.chi2_terms.resize(residuals_.size());
+  w.plus_jac_off.resize(nvar);
+  int pj_total = 0;
+  for (int v = 0; v < nvar; ++v) {
+    w.plus_jac_off[v] = pj_total;
+    const Block& b = blocks_[variables[v]];
+    pj_total += b.manifold ? b.size * b.tangent : 0;
+  }
+  w.plus_jac.resize(pj_total);
+
+  // Who feeds each part of b and each block of H's upper triangle, bucketed
+  // by variable (column block) with flat arrays: on a 10,000-pose graph a
+  // tree of blocks cost more than the symbolic factorisation.
+  auto for_each_slot = [&](auto&& f) {
+    for (size_t k = 0; k < residuals_.size(); ++k) {
+      const auto& rb = residuals_[k].blocks;
+      for (size_t p = 0; p < rb.size(); ++p) {
+        const int vp = blocks_[rb[p]].variable;
+        if (vp >= 0) f(static_cast<int>(k), static_cast<int>(p), vp);
+      }
+    }
+  };
+  w.gradient_start.assign(nvar + 1, 0);
+  for_each_slot([&](int, int, int vp) { ++w.gradient_start[vp + 1]; });
+  for (int v = 0; v < nvar; ++v) w.gradient_start[v + 1] += w.gradient_start[v];
+  w.gradient_terms.resize(w.gradient_start[nvar]);
+  {
+    std::vector<int> next(w.gradient_start.begin(), w.gradient_start.end() - 1);
+    for_each_slot([&](int k, int p, int vp) { w.gradient_terms[next[vp]++] = {k, p}; });
+  }
+  // Each pair p, q of a residual's variables with row block <= column block
+  // adds Jp^T Jq to H(row, col).
+  struct Entry {
+    int row;
+    Workspace::Contribution c;
+  };
+  auto for_each_pair = [&](auto&& f) {
+    for_each_slot([&](int k, int p, int vp) {
+      const auto& rb = residuals_[k].blocks;
+      for (size_t q = 0; q < rb.size(); ++q) {
+        const int vq = blocks_[rb[q]].variable;
+        if (vq < 0 || vp > vq) continue;
+        if (vp == vq && p != static_cast<int>(q)) continue;  // a block listed twice is not supported below
+        const int slot = w.slot_start[k];
+        f(vp, vq, Workspace::Contribution{w.jac_local_off[slot + p], w.jac_local_off[slot + q],
+                                          residuals_[k].cost->num_residuals()});
+      }
+    });
+  };
+  std::vector<int> col_entries(nvar + 1, 0);
+  for_each_pair([&](int, int vq, const Workspace::Contribution&) { ++col_entries[vq + 1]; });
+  for (int v = 0; v < nvar; ++v) col_entries[v + 1] += col_entries[v];
+  std::vector<Entry> entries(col_entries[nvar]);
+  {
+    std::vector<int> next(col_entries.begin(), col_entries.end() - 1);
+    for_each_pair([&](int vp, int vq, const Workspace::Contribution& c) {
+      entries[next[vq]++] = Entry{vp, c};
+    });
+  }
+  // Within a column, by row block; a block's terms stay in residual order,
+  // so sums do not depend on how the pattern was found.
+  w.terms.reserve(entries.size());
+  std::vector<int> col_blocks(nvar + 1, 0);  // h_blocks of each column block
+  for (int c = 0; c < nvar; ++c) {
+    const auto first = entries.begin() + col_entries[c], last = entries.begin() + col_entries[c + 1];
+    std::stable_sort(first, last, [](const Entry& a, const Entry& b) { return a.row < b.row; });
+    for (auto e = first; e != last;) {
+      Workspace::HBlock hb{e->row, c, 0, static_cast<int>(w.terms.size()), 0};
+      for (const int row = e->row; e != last && e->row == row; ++e) w.terms.push_back(e->c);
+      hb.term_end = static_cast<int>(w.terms.size());
+      w.h_blocks.push_back(hb);
+    }
+    col_blocks[c + 1] = static_cast<int>(w.h_blocks.size());
+  }
+  std::vector<Entry>().swap(entries);
+
+  // Scalar CSC pattern of the upper triangle.
+  std::vector<int> col_ptr(w.n + 1, 0), rows;
+  for (auto& hb : w.h_blocks) {
+    hb.start = static_cast<int>(w.col_start.size());
+    w.col_start.resize(w.col_start.size() + blocks_[variables[hb.col_block]].tangent);
+  }
+  w.diagonal.resize(w.n);
+  for (int c = 0; c < nvar; ++c) {
+    const Block& cb = blocks_[variables[c]];
+    for (int j = 0; j < cb.tangent; ++j) {
+      const int col = cb.offset + j;
+      col_ptr[col] = static_cast<int>(rows.size());
+      for (int idx = col_blocks[c]; idx < col_blocks[c + 1]; ++idx) {
+        const auto& hb = w.h_blocks[idx];
+        const Block& rb = blocks_[variables[hb.row_block]];
+        w.col_start[hb.start + j] = static_cast<int>(rows.size());
+        const int height = hb.row_block == c ? j + 1 : rb.tangent;
+        for (int i = 0; i < height; ++i) rows.push_back(rb.offset + i);
+      }
+      w.diagonal[col] = static_cast<int>(rows.size()) - 1;
+    }
+  }
+  col_ptr[w.n] = static_cast<int>(rows.size());
+
+  w.b.resize(w.n);
+  w.dx.resize(w.n);
+  w.diagonal_saved.resize(w.n);
+  for (int v : variables) w.x_saved.insert(w.x_saved.end(), blocks_[v].values, blocks_[v].values + blocks_[v].size);
+
+  w.linear_solver = ResolveCholeskyKind(options.linear_solver, pool_->size());
+  std::vector<int> block_sizes;
+  for (int v : variables) block_sizes.push_back(blocks_[v].tangent);
+  if (kept && kept_kind == w.linear_solver && kept_variables.size() <= variables.size() &&
+      std::equal(kept_variables.begin(), kept_variables.end(), variables.begin()) &&
+      kept->Extend(w.n, col_ptr, rows, block_sizes)) {
+    w.cholesky = std::move(kept);
+    last_analysis_extended_ = true;
+    ordering_hint_.clear();
+    return;
+  }
+  kept.reset();
+  w.cholesky = SparseCholesky::Create(w.linear_solver);
+  if (!ordering_hint_.empty()) {
+    std::vector<int> perm;
+    std::vector<bool> placed(nvar, false);
+    for (const double* p : ordering_hint_) {
+      auto it = block_index_.find(p);
+      if (it == block_index_.end()) continue;
+      const int v = blocks_[it->second].variable;
+      if (v < 0 || placed[v]) continue;
+      placed[v] = true;
+      perm.push_back(v);
+    }
+    for (int v = 0; v < nvar; ++v)
+      if (!placed[v]) perm.push_back(v);
+    w.cholesky->SetBlockOrdering(perm);
+    ordering_hint_.clear();
+  }
+  if (w.n > 0) w.cholesky->Analyze(w.n, col_ptr, rows, block_sizes);
+}
+
+void GaussNewtonProblem::SetParameterBlockVariable(double* values) {
+  auto it = block_index_.find(values);
+  if (it == block_index_.end()) throw std::invalid_argument("unknown parameter block");
+  blocks_[it->second].constant = false;
+}
+
+void GaussNewtonProblem::SetOrderingHint(std::vector<const double*> order) {
+  ordering_hint_ = std::move(order);
+}
+
+std::vector<const double*> GaussNewtonProblem::Ordering() const {
+  std::vector<const double*> order;
+  if (!ws_ || !ws_->cholesky) return order;
+  for (int v : ws_->cholesky->BlockOrdering()) order.push_back(blocks_[ws_->variables[v]].values);
+  return order;
+}
+
+bool GaussNewtonProblem::MarginalCovariances(const std::vector<const double*>& which,
+                                             std::vector<Eigen::MatrixXd>* covariances) {
+  if (!ws_) throw std::logic_error("MarginalCovariances needs Prepare first");
+  Workspace& w = *ws_;
+  covariances->clear();
+  for (const double* p : which) {
+    auto it = block_index_.find(p);
+    if (it == block_index_.end()) throw std::invalid_argument("unknown parameter block");
+    covariances->push_back(Eigen::MatrixXd::Zero(blocks_[it->second].tangent, blocks_[it->second].tangent));
+  }
+  if (w.n == 0) return true;
+  Linearize();
+  double step = 0;
+  // Factorises H itself (lambda 0); the step it solves for is not used.
+  if (!SolveStep(0.0, &step)) return false;
+  std::vector<double> e(w.n, 0.0), x(w.n);
+  for (size_t k = 0; k < which.size(); ++k) {
+    const Block& b = blocks_[block_index_.at(which[k])];
+    if (b.variable < 0) continue;
+    for (int j = 0; j < b.tangent; ++j) {
+      e[b.offset + j] = 1.0;
+      w.cholesky->Solve(e.data(), x.data());
+      e[b.offset + j] = 0.0;
+      for (int i = 0; i < b.tangent; ++i) (*covariances)[k](i, j) = x[b.offset + i];
+    }
+  }
+  return true;
+}
+
+
+
+double GaussNewtonProblem::Evaluate(bool jacobians) {
+  Workspace& w = *ws_;
+  pool_->ParallelFor(residuals_.size(), [&](size_t begin, size_t end) {
+      // Per worker thread, grown once: no allocation once iterating.
+      thread_local std::vector<const double*> params;
+      thread_local std::vector<double*> jac;
+      if (params.size() < w.max_arity) params.resize(w.max_arity), jac.resize(w.max_arity);
+      for (size_t k = begin; k < end; ++k) {
+        const Residual& res = residuals_[k];
+        const int m = res.cost->num_residuals();
+        for (size_t p = 0; p < res.blocks.size(); ++p) {
+          params[p] = blocks_[res.blocks[p]].values;
+          const int slot = w.slot_start[k] + static_cast<int>(p);
+          jac[p] = jacobians && w.jac_ambient_off[slot] >= 0
+                       ? w.jac_ambient.data() + w.jac_ambient_off[slot]
+                       : nullptr;
+        }
+        double* r = w.r.data() + w.residual_offset[k];
+        if (!res.cost->Evaluate(params.data(), r, jacobians ? jac.data() : nullptr)) {
+          w.chi2_terms[k] = std::numeric_limits<double>::infinity();
+          continue;
+        }
+        Eigen::Map<Eigen::VectorXd> rv(r, m);
+        double weight;
+        w.chi2_terms[k] = RhoOf(res.loss.get(), rv.squaredNorm(), &weight);
+        if (!jacobians) continue;
+        // Iteratively reweighted: sqrt(rho') scales residual and Jacobian.
+        const double sw = std::sqrt(std::max(weight, 0.0));
+        if (res.loss) rv *= sw;
+        for (size_t p = 0; p < res.blocks.size(); ++p) {
+          if (!jac[p]) continue;
+          const Block& blk = blocks_[res.blocks[p]];
+          double* local = w.jac_local.data() + w.jac_local_off[w.slot_start[k] + p];
+          if (blk.manifold) {
+            LocalJacobian(jac[p], w.plus_jac.data() + w.plus_jac_off[blk.variable], local, m,
+                          blk.size, blk.tangent);
+          } else {
+            std::copy(jac[p], jac[p] + m * blk.size, local);
+          }
+          if (res.loss) Eigen::Map<Eigen::VectorXd>(local, m * blk.tangent) *= sw;
+        }
+      }
+    });
+  double sum = 0;
+  for (double c : w.chi2_terms) sum += c;
+  return sum;
+}
+
+double GaussNewtonProblem::Linearize(bool assemble_h) {
+  const double chi2 = LinearizeGradient();
+  if (assemble_h) AssembleNormalMatrix();
+  return chi2;
+}
+
+double GaussNewtonProblem::LinearizeGradient() {
+  Workspace& w = *ws_;
+  const std::vector<int>& variables = w.variables;
+  const int nvar = static_cast<int>(variables.size());
+  pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
+    for (size_t v = begin; v < end; ++v) {
+      const Block& b = blocks_[variables[v]];
+      if (b.manifold) b.manifold->PlusJacobian(b.values, w.plus_jac.data() + w.plus_jac_off[v]);
+    }
+  });
+  const double chi2 = Evaluate(true);
+  pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
+    for (size_t v = begin; v < end; ++v) {
+      const Block& b = blocks_[variables[v]];
+      Eigen::Map<Eigen::VectorXd> g(w.b.data() + b.offset, b.tangent);
+      g.setZero();
+      for (int t = w.gradient_start[v]; t < w.gradient_start[v + 1]; ++t) {
+        const auto [k, p] = w.gradient_terms[t];
+        AddGradient(w.jac_local.data() + w.jac_local_off[w.slot_start[k] + p],
+                    w.r.data() + w.residual_offset[k], g.data(), residuals_[k].cost->num_residuals(),
+                    b.tangent);
+      }
+    }
+  });
+  return chi2;
+}
+
+// H from the Jacobians LinearizeGradient left, block by block; each block is
+// written by one thread only.
+void GaussNewtonProblem::AssembleNormalMatrix() {
+  Workspace& w = *ws_;
+  const std::vector<int>& variables = w.variables;
+  double* h = w.cholesky->values();
+  pool_->ParallelFor(w.h_blocks.size(), [&](size_t begin, size_t end) {
+    // One buffer per worker thread, sized for the largest block.
+    thread_local Eigen::MatrixXd buffer;
+    if (buffer.rows() < w.max_tangent) buffer.resize(w.max_tangent, w.max_tangent);
+    for (size_t t = begin; t < end; ++t) {
+      const auto& hb = w.h_blocks[t];
+      const int tr = blocks_[variables[hb.row_block]].tangent;
+      const int tc = blocks_[variables[hb.col_block]].tangent;
+      auto acc = buffer.topLeftCorner(tr, tc);
+      acc.setZero();
+      for (int k = hb.term_begin; k < hb.term_end; ++k) {
+        const Workspace::Contribution& c = w.terms[k];
+        AddOuter(w.jac_local.data() + c.jp, w.jac_local.data() + c.jq, buffer.data(),
+                 static_cast<int>(buffer.rows()), c.m, tr, tc);
+      }
+      const bool diag = hb.row_block == hb.col_block;
+      for (int j = 0; j < tc; ++j) {
+        double* col = h + w.col_start[hb.start + j];
+        const int height = diag ? j + 1 : tr;
+        for (int i = 0; i < height; ++i) col[i] = acc(i, j);
+      }
+    }
+  });
+  for (int i = 0; i < w.n; ++i) w.diagonal_saved[i] = h[w.diagonal[i]];
+}
+
+bool GaussNewtonProblem::SolveWithLastFactor(double* step_norm) {
+  Workspace& w = *ws_;
+  w.cholesky->Solve(w.b.data(), w.dx.data());
+  for (double& d : w.dx) d = -d;
+  *step_norm = Eigen::Map<const Eigen::VectorXd>(w.dx.data(), w.n).norm();
+  return std::isfinite(*step_norm);
+}
+
+bool GaussNewtonProblem::SolveStep(double lambda, double* step_norm) {
+  Workspace& w = *ws_;
+  double* h = w.cholesky->values();
+  for (int i = 0; i < w.n; ++i)
+    h[w.diagonal[i]] = w.diagonal_saved[i] + lambda * std::max(w.diagonal_saved[i], 1e-12);
+  if (!w.cholesky->Factorize()) return false;
+  w.cholesky->Solve(w.b.data(), w.dx.data());
+  for (double& d : w.dx) d = -d;
+  *step_norm = Eigen::Map<const Eigen::VectorXd>(w.dx.data(), w.n).norm();
+  return std::isfinite(*step_norm);
+}
+
+double GaussNewtonProblem::PredictedDecrease(double lambda) const {
+  // With (H + lambda D) dx = -b, the model |r + J dx|^2 falls by
+  // -2 b.dx - dx'H dx = -b.dx + lambda dx'D dx.
+  const Workspace& w = *ws_;
+  double decrease = 0;
+  for (int i = 0; i < w.n; ++i)
+    decrease += -w.b[i] * w.dx[i] + lambda * std::max(w.diagonal_saved[i], 1e-12) * w.dx[i] * w.dx[i];
+  return decrease;
+}
+
+void GaussNewtonProblem::SaveEstimate() {
+  Workspace& w = *ws_;
+  size_t o = 0;
+  for (int v : w.variables) {
+    std::copy(blocks_[v].values, blocks_[v].values + blocks_[v].size, w.x_saved.begin() + o);
+    o += blocks_[v].size;
+  }
+}
+
+void GaussNewtonProblem::RestoreEstimate() {
+  Workspace& w = *ws_;
+  size_t o = 0;
+  for (int v : w.variables) {
+    std::copy(w.x_saved.begin() + o, w.x_saved.begin() + o + blocks_[v].size, blocks_[v].values);
+    o += blocks_[v].size;
+  }
+}
+
+void GaussNewtonProblem::ApplyStep() {
+  Workspace& w = *ws_;
+  pool_->ParallelFor(w.variables.size(), [&](size_t begin, size_t end) {
+    thread_local std::vector<double> tmp;
+    if (tmp.size() < static_cast<size_t>(w.max_size)) tmp.resize(w.max_size);
+    for (size_t v = begin; v < end; ++v) {
+      Block& b = blocks_[w.variables[v]];
+      const double* d = w.dx.data() + b.offset;
+      if (b.manifold) {
+        b.manifold->Plus(b.values, d, tmp.data());
+        std::copy(tmp.begin(), tmp.begin() + b.size, b.values);
+      } else {
+        for (int k = 0; k < b.size; ++k) b.values[k] += d[k];
+      }
+    }
+  });
+}
+
+SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  SerialLinearAlgebraScope serial;  // the factorisations' libraries on this thread alone
+  SolveResult result;
+  result.solver = "gn";
+  Prepare(options);
+  Workspace& w = *ws_;
+  result.linear_solver = ToString(w.linear_solver);
+  if ((w.linear_solver == CholeskyKind::kSupernodalOrSimplicial ||
+       w.linear_solver == CholeskyKind::kTwoHalves) && w.cholesky)
+    result.linear_solver += ": " + w.cholesky->Method();
+  auto progress = [&](const IterationRecord& it) {
+    if (options.verbose) std::fprintf(stderr, "%s\n", FormatIteration(it).c_str());
+  };
+
+  result.setup_time_s = Seconds(t0);
+  // Every candidate is evaluated with its Jacobians and gradient: accepted
+  // (the common case) it needs no evaluation of its own next iteration.
+  double chi2 = LinearizeGradient();
+  bool jacobians_current = true;  // J and b in the workspace are at the estimate
+  result.linearize_time_s += Seconds(t0) - result.setup_time_s;
+  result.initial_chi2 = chi2;
+  auto record = [&](int iteration, double step_norm, bool accepted, double solve_s) {
+    IterationRecord it;
+    it.iteration = iteration;
+    it.chi2 = chi2;
+    it.step_norm = step_norm;
+    it.time_s = Seconds(t0);
+    it.accepted = accepted;
+    it.linear_solver_time_s = solve_s;
+    result.trace.push_back(it);
+    progress(it);
+  };
+  record(0, 0, true, 0);
+  auto finish = [&](const char* termination, const std::string& message, bool converged) {
+    result.termination = termination;
+    result.message = message + " (linear solver " + ToString(w.linear_solver) + ")";
+    result.converged = converged;
+    result.final_chi2 = chi2;
+    result.usable = std::isfinite(chi2) && chi2 <= result.initial_chi2;
+    result.time_s = Seconds(t0);
+    return result;
+  };
+  if (!std::isfinite(chi2))
+    return finish("failure", "the initial estimate gives a non-finite chi-squared", false);
+  if (w.n == 0) return finish("convergence", "nothing to optimise: every block is constant", true);
+
+  bool pure_gauss_newton = true;
+  double damping = options.damping, decrease_factor = 2;
+  double last_decrease = 1.0;
+  bool have_factor = false;
+  for (int iter = 1; iter <= options.max_iterations; ++iter) {
+    // Near the optimum H hardly changes: a step with the last factorisation
+    // (a chord step) costs a linearisation and two triangular solves instead
+    // of a factorisation. Kept only if it lowers chi2; else a full step.
+    if (options.reuse_factorization && have_factor && last_decrease < kChordThreshold) {
+      const auto tl = std::chrono::steady_clock::now();
+      if (!jacobians_current) LinearizeGradient();
+      result.linearize_time_s += Seconds(tl);
+      SaveEstimate();
+      double step_norm = 0;
+      const auto ts = std::chrono::steady_clock::now();
+      const bool ok = SolveWithLastFactor(&step_norm);
+      const double solve_s = Seconds(ts);
+      result.linear_solver_time_s += solve_s;
+      if (ok) {
+        ApplyStep();
+        const auto te = std::chrono::steady_clock::now();
+        const double new_chi2 = LinearizeGradient();
+        result.linearize_time_s += Seconds(te);
+        jacobians_current = true;
+        if (std::isfinite(new_chi2) && new_chi2 <= chi2) {
+          const double decrease = (chi2 - new_chi2) / std::max(chi2, std::numeric_limits<double>::min());
+          chi2 = new_chi2;
+          result.iterations = iter;
+          ++result.reused_factorizations;
+          record(iter, step_norm, true, solve_s);
+          if (decrease < options.function_tolerance)
+            return finish("convergence",
+                          "function tolerance reached: relative decrease " + std::to_string(decrease),
+                          true);
+          last_decrease = decrease;
+          continue;
+        }
+        RestoreEstimate();
+        jacobians_current = false;
+        // Within rounding of chi2: the estimate is at the minimum already,
+        // and a full step would only confirm it at the price of a factorisation.
+        if (std::isfinite(new_chi2) && new_chi2 - chi2 <= 1e-12 * chi2) {
+          result.iterations = iter;
+          record(iter, step_norm, false, solve_s);
+          return finish("convergence",
+                        "converged: the next step changes chi-squared only within rounding", true);
+        }
+      }
+      have_factor = false;  // fall through: a full step from the same point
+    }
+    const auto tl = std::chrono::steady_clock::now();
+    if (jacobians_current) {
+      AssembleNormalMatrix();
+    } else {
+      Linearize();
+    }
+    jacobians_current = false;
+    result.linearize_time_s += Seconds(tl);
+    const double g_max = Eigen::Map<const Eigen::VectorXd>(w.b.data(), w.n).cwiseAbs().maxCoeff();
+    if (g_max <= options.gradient_tolerance)
+      return finish("convergence",
+                    "gradient tolerance reached: max |g| " + std::to_string(g_max), true);
+    SaveEstimate();
+    double x_norm = 0;
+    for (double v : w.x_saved) x_norm += v * v;
+    x_norm = std::sqrt(x_norm);
+
+    // Pure Gauss-Newton until a step fails; from then on Levenberg-Marquardt
+    // with Ceres's trust-region schedule (its radius is 1/lambda), so that
+    // on a problem with several minima both paths walk the same way.
+    double solve_s = 0, new_chi2 = chi2, step_norm = 0, rho = 1;
+    bool accepted = false, at_rounding = false;
+    for (;;) {
+      const double lambda = pure_gauss_newton ? 0.0 : damping;
+      const auto ts = std::chrono::steady_clock::now();
+      bool ok = SolveStep(lambda, &step_norm);
+      const double s = Seconds(ts);
+      solve_s += s;
+      result.linear_solver_time_s += s;
+      if (ok) {
+        const double predicted = PredictedDecrease(lambda);
+        ApplyStep();
+        // The gradient at this point is needed again if the step is refused.
+        w.b_saved.assign(w.b.begin(), w.b.end());
+        const auto te = std::chrono::steady_clock::now();
+        new_chi2 = LinearizeGradient();
+        result.linearize_time_s += Seconds(te);
+        rho = predicted > 0 ? (chi2 - new_chi2) / predicted : -1;
+        if (std::isfinite(new_chi2) && new_chi2 <= chi2 && rho > kMinRelativeDecrease) {
+          accepted = true;
+          break;
+        }
+        RestoreEstimate();
+        w.b.swap(w.b_saved);
+        // A change within rounding of chi2 means the estimate is already at
+        // the minimum: damping would only repeat the same factorisation.
+        if (std::isfinite(new_chi2) && std::abs(new_chi2 - chi2) <= 1e-12 * chi2) {
+          at_rounding = true;
+          break;
+        }
+      }
+      damping *= decrease_factor;
+      decrease_factor *= 2;
+      if (options.verbose)
+        std::fprintf(stderr, "         %s step %s; trying a damped step (lambda %.1e)\n",
+                     pure_gauss_newton ? "Gauss-Newton" : "damped",
+                     !ok ? "met normal equations that are not positive definite"
+                     : !(new_chi2 <= chi2) ? "raised chi2"
+                                           : "lowered chi2 by under 0.1% of what its model predicted",
+                     damping);
+      pure_gauss_newton = false;
+      if (damping > kMaxDamping) break;
+    }
+    result.iterations = iter;
+    jacobians_current = accepted;  // else the workspace holds the refused candidate's
+    if (accepted) {
+      // Ceres's rule: a step that did what the model said widens the trust
+      // region (up to 3 times), a poor one narrows it.
+      damping = std::max(kMinDamping,
+                         damping * std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3)));
+      decrease_factor = 2;
+    }
+    if (at_rounding) {
+      record(iter, step_norm, false, solve_s);
+      return finish("convergence",
+                    "converged: the next step changes chi-squared only within rounding", true);
+    }
+    if (!accepted) {
+      record(iter, step_norm, false, solve_s);
+      return finish("convergence",
+                    "no step lowers chi-squared, damped or not: the estimate is a minimum "
+                    "to the solver's precision",
+                    true);
+    }
+    const double decrease = (chi2 - new_chi2) / std::max(chi2, std::numeric_limits<double>::min());
+    chi2 = new_chi2;
+    last_decrease = decrease;
+    have_factor = true;
+    record(iter, step_norm, true, solve_s);
+    if (decrease < options.function_tolerance)
+      return finish("convergence",
+                    "function tolerance reached: relative decrease " + std::to_string(decrease),
+                    true);
+    if (step_norm <= options.parameter_tolerance * (x_norm + options.parameter_tolerance))
+      return finish("convergence", "parameter tolerance reached", true);
+  }
+  return finish("no_convergence",
+                "iteration limit reached (" + std::to_string(options.max_iterations) + ")", false);
+}
+
+}  // namespace cairn

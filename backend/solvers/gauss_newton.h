@@ -1,0 +1,125 @@
+// cairn's own Gauss-Newton solver. It takes the same Ceres cost functions,
+// loss functions and manifolds a ceres::Problem takes (so its Jacobians come
+// from the very same autodiff factors) and solves the normal equations
+// H dx = -b by sparse Cholesky, with the symbolic analysis done once.
+#pragma once
+
+#include <ceres/cost_function.h>
+#include <ceres/loss_function.h>
+#include <ceres/manifold.h>
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "cairn/solvers/solve_result.h"
+#include "cairn/solvers/linear_solver.h"
+
+namespace cairn {
+
+class ThreadPool;  // backend/linear, internal
+
+// The common options (iterations, tolerances, threads, progress, robust
+// loss for loop closures) mean the same as for the Ceres path.
+struct GaussNewtonOptions : SolverOptions {
+  // Levenberg-Marquardt damping (times diag(H)) that the fallback starts
+  // from once a pure Gauss-Newton step fails; it then follows Ceres's
+  // trust-region schedule, whose radius is 1/damping (Ceres starts ours at
+  // 1e10), so both paths take the same steps on hard problems.
+  double damping = 1e-10;
+  CholeskyKind linear_solver = CholeskyKind::kAuto;
+  // Once chi2 falls by less than 2% a step, try the last factorisation of
+  // H with the new gradient before factorising again (see Solve).
+  bool reuse_factorization = true;
+};
+
+// A least-squares problem in the shape of ceres::Problem, for our solver.
+class GaussNewtonProblem {
+ public:
+  GaussNewtonProblem();
+  ~GaussNewtonProblem();
+
+  // `values` (size doubles) stays owned by the caller and is updated in
+  // place; `manifold` (not owned, may be null) sets the tangent space.
+  void AddParameterBlock(double* values, int size, const ceres::Manifold* manifold = nullptr);
+  void SetParameterBlockConstant(double* values);
+  // Takes ownership of `cost` and `loss` (loss may be null). Blocks not yet
+  // added are added without a manifold.
+  void AddResidualBlock(ceres::CostFunction* cost, ceres::LossFunction* loss,
+                        const std::vector<double*>& blocks);
+
+  int NumParameterBlocks() const;
+  int NumResidualBlocks() const;
+
+  // Sum over residual blocks of rho(|r|^2) (|r|^2 without a loss): with
+  // whitened residuals, g2o's chi-squared.
+  double Chi2();
+  SolveResult Solve(const GaussNewtonOptions& options);
+
+  // The steps Solve takes, for benchmarks and callers that drive their own
+  // loop. Prepare fixes the pattern of H and runs the symbolic analysis;
+  // Linearize assembles H and b at the current estimate and returns chi2;
+  // SolveStep factorises H + lambda diag(H) and solves for the step (false
+  // if not positive definite); ApplyStep moves the estimate by it.
+  void Prepare(const GaussNewtonOptions& options);
+  double Linearize(bool assemble_h = true);
+  bool SolveStep(double lambda, double* step_norm);
+  // The step from the last factorisation and the current gradient.
+  bool SolveWithLastFactor(double* step_norm);
+  void ApplyStep();
+  int TangentDimension() const;
+  long FactorNonZeros() const;
+  CholeskyKind LinearSolver() const;  // the one Prepare chose
+
+  // Undoes SetParameterBlockConstant (the next Prepare sees the change).
+  void SetParameterBlockVariable(double* values);
+
+  // For a problem that only grew: the next Prepare eliminates the variable
+  // blocks in this order (blocks not listed come last, in the order they
+  // were added) instead of computing a fresh fill-reducing ordering.
+  // Honoured by the SuiteSparse factorisations; Eigen orders by itself. When the old
+  // variables are still the first ones and every new block of H lies in a
+  // new column (each new residual touches a new block, or only pairs H
+  // already had), Prepare goes further and extends the last analysis
+  // instead of redoing it (SparseCholesky::Extend).
+  void SetOrderingHint(std::vector<const double*> order);
+  // Whether the last Prepare extended the analysis before it.
+  bool LastAnalysisExtended() const { return last_analysis_extended_; }
+  // The elimination order of the variable blocks after Prepare (empty when
+  // the linear solver does not report it), to pass back as a hint.
+  std::vector<const double*> Ordering() const;
+
+  // Marginal covariances, in the tangent space, of the given blocks at the
+  // current estimate: H is linearised and factorised undamped and H X = E
+  // solved for the blocks' columns (the Laplace approximation, as Ceres's
+  // Covariance). A constant block gets a zero matrix. Needs Prepare; false
+  // when H is not positive definite (an unobserved direction).
+  bool MarginalCovariances(const std::vector<const double*>& blocks,
+                           std::vector<Eigen::MatrixXd>* covariances);
+
+ private:
+  struct Block;
+  struct Residual;
+  struct Workspace;
+
+  double Evaluate(bool jacobians);
+  // Jacobians and gradient b at the current estimate; returns chi2.
+  double LinearizeGradient();
+  void AssembleNormalMatrix();
+  // Fall of chi2 that the linear model promises for the step just solved.
+  double PredictedDecrease(double lambda) const;
+  void SaveEstimate();
+  void RestoreEstimate();
+
+  std::vector<Block> blocks_;
+  std::unordered_map<const double*, int> block_index_;
+  std::vector<Residual> residuals_;
+  std::unique_ptr<Workspace> ws_;
+  std::unique_ptr<ThreadPool> pool_;
+  std::vector<const double*> ordering_hint_;
+  bool last_analysis_extended_ = false;
+};
+
+}  // namespace cairn

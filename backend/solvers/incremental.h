@@ -1,0 +1,116 @@
+// Incremental use as a robot runs: poses, odometry, loop closures and priors
+// are added one at a time and the graph is optimised when asked, warm-started
+// from the last solution. Both solvers keep their problem between calls and
+// take in only what was added: Ceres's problem gains the new parameter and
+// residual blocks; the Gauss-Newton problem keeps its cost functions and its
+// fill-reducing ordering, with new poses appended at the end of it.
+#pragma once
+
+#include <ceres/loss_function.h>
+#include <ceres/manifold.h>
+#include <ceres/problem.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "cairn/solvers/ceres_solver.h"
+#include "cairn/solvers/gauss_newton.h"
+#include "cairn/graph/pose_graph.h"
+#include "cairn/solvers/solve_result.h"
+
+namespace cairn {
+
+enum class SolverKind { kCeres, kGaussNewton };
+
+struct IncrementalOptions {
+  // The robust loss on loop closures (both solvers); the one inside `ceres`
+  // and `gauss_newton` is ignored.
+  RobustLoss loop_closure_loss;
+  CeresOptions ceres;
+  GaussNewtonOptions gauss_newton;
+  // Gauss-Newton: appending new poses to an old ordering slowly costs fill;
+  // a fresh ordering (AMD, or METIS and CAMD for two halves) is computed
+  // once the variables have grown by this fraction since the last one (and
+  // whenever the held vertices change).
+  double reorder_growth = 0.1;
+};
+
+// A pose graph that grows and is re-optimised in place. The vertices' arrays
+// are the estimate both solvers update, so each starts where the last
+// optimisation (of either solver) stopped. Not copyable: the solvers hold
+// pointers into the graph.
+class IncrementalOptimizer {
+ public:
+  explicit IncrementalOptimizer(int dimension = 2, IncrementalOptions options = {});
+  // Starts from an existing graph (copied), e.g. one read from a file.
+  explicit IncrementalOptimizer(const PoseGraph& graph, IncrementalOptions options = {});
+  ~IncrementalOptimizer();
+  IncrementalOptimizer(const IncrementalOptimizer&) = delete;
+  IncrementalOptimizer& operator=(const IncrementalOptimizer&) = delete;
+
+  // `x` is the initial estimate, e.g. the last pose composed with the
+  // odometry. Throws std::invalid_argument on a duplicate id.
+  void AddPose(int64_t id, const SE2& x, bool fixed = false);
+  void AddPose(int64_t id, const SE3& x, bool fixed = false);
+  // Measurements of `to` seen from `from`, with their information matrix
+  // (3x3 in 2D, 6x6 in 3D, in g2o's order). Throws std::invalid_argument as
+  // PoseGraph::AddEdge does.
+  void AddOdometry(int64_t from, int64_t to, const SE2& z, const Eigen::Matrix3d& information);
+  void AddOdometry(int64_t from, int64_t to, const SE3& z, const Matrix6d& information);
+  void AddLoopClosure(int64_t from, int64_t to, const SE2& z, const Eigen::Matrix3d& information);
+  void AddLoopClosure(int64_t from, int64_t to, const SE3& z, const Matrix6d& information);
+  // An absolute measurement of one pose; a graph with a prior needs no gauge.
+  void AddPrior(int64_t id, const SE2& z, const Eigen::Matrix3d& information);
+  void AddPrior(int64_t id, const SE3& z, const Matrix6d& information);
+  // The general form: any edge PoseGraph accepts.
+  void AddEdge(const Edge& edge);
+
+  // Optimises everything added so far from the current estimate. The gauge
+  // is the batch solvers': FIX vertices, else a prior, else the lowest id.
+  SolveResult Optimize(SolverKind solver = SolverKind::kGaussNewton);
+
+  // Marginal covariances (tangent space: 3x3 or 6x6, in the pose's own
+  // frame) of the given vertices at the current estimate, from the chosen
+  // solver's problem; held vertices get zeros. Throws std::invalid_argument
+  // for an unknown vertex or one no edge touches; std::runtime_error when
+  // the information matrix is singular.
+  std::vector<Eigen::MatrixXd> MarginalCovariances(const std::vector<int64_t>& ids,
+                                                   SolverKind solver = SolverKind::kGaussNewton);
+
+  const PoseGraph& graph() const { return graph_; }
+  SE2 PoseSE2(int64_t id) const { return ToSE2(graph_.vertex(id).x); }
+  SE3 PoseSE3(int64_t id) const { return ToSE3(graph_.vertex(id).x); }
+  // How many fresh fill-reducing orderings the Gauss-Newton path computed
+  // (the rest of its solves reused the previous one).
+  int gauss_newton_reorderings() const { return gn_reorderings_; }
+  // How many of its solves extended the last symbolic analysis (the graph
+  // had only grown by poses and their edges) rather than redoing it.
+  int gauss_newton_extensions() const { return gn_extensions_; }
+
+ private:
+  void SyncCeres();
+  void SyncGaussNewton();
+  void PrepareVertex(Vertex& v);
+
+  PoseGraph graph_;
+  IncrementalOptions options_;
+  std::unique_ptr<ceres::Manifold> manifold_;
+  std::unique_ptr<ceres::LossFunction> loop_closure_loss_;
+
+  std::unique_ptr<ceres::Problem> ceres_;
+  size_t ceres_edges_ = 0;  // edges already in the Ceres problem
+
+  std::unique_ptr<GaussNewtonProblem> gn_;
+  size_t gn_edges_ = 0;
+  std::vector<bool> gn_held_;  // per vertex, as last given to the GN problem
+  std::vector<const double*> gn_ordering_;
+  size_t gn_ordered_variables_ = 0;  // variables when the ordering was computed
+  bool gn_reorder_ = true;
+  int gn_reorderings_ = 0;
+  int gn_extensions_ = 0;
+};
+
+}  // namespace cairn

@@ -11,6 +11,7 @@
 #include <stdexcept>
 
 #include "cairn/graph/graph_io.h"
+#include "cairn/graph/output_files.h"
 #include "cairn/frontend/carmen_log.h"
 
 namespace cairn::frontend {

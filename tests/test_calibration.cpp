@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "cairn/graph/graph_io.h"
+#include "cairn/graph/output_files.h"
 #include "cairn/calibration/odometry_calibration.h"
 #include "cairn/frontend/calibration_log.h"
 #include "test_util.h"

@@ -109,9 +109,6 @@ TEST(Covariance, RefusesUnknownVertices) {
   g.AddEdge(e);
   EXPECT_THROW(MarginalCovariances(g, {7}), std::invalid_argument);
   EXPECT_THROW(MarginalCovariances(g, {2}), std::invalid_argument);  // in no edge
-  EXPECT_EQ(ParseIdList("3,17,42"), (std::vector<int64_t>{3, 17, 42}));
-  EXPECT_THROW(ParseIdList("3,,4"), std::invalid_argument);
-  EXPECT_THROW(ParseIdList("x"), std::invalid_argument);
 }
 
 TEST(Covariance, OptimizeCommandPrintsAndReports) {

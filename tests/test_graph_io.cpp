@@ -9,6 +9,7 @@
 
 #include "cairn/graph/chi2.h"
 #include "cairn/graph/graph_io.h"
+#include "cairn/graph/output_files.h"
 #include "test_util.h"
 
 namespace cairn {

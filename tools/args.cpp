@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
+#include <stdexcept>
 #include <sstream>
 
 namespace cairn::tools {
@@ -173,5 +174,22 @@ std::string ArgParser::Help() const {
 }
 
 void PrintError(const std::string& message) { std::cerr << "cairn: " << message << "\n"; }
+
+std::vector<int64_t> ParseIdList(const std::string& text) {
+  std::vector<int64_t> ids;
+  size_t pos = 0;
+  while (pos <= text.size()) {
+    const size_t comma = std::min(text.find(',', pos), text.size());
+    const std::string item = text.substr(pos, comma - pos);
+    char* end = nullptr;
+    const long long id = std::strtoll(item.c_str(), &end, 10);
+    if (item.empty() || *end != '\0')
+      throw std::invalid_argument("bad vertex id '" + item + "' in '" + text +
+                                  "' (expected ids separated by commas, e.g. 3,17,42)");
+    ids.push_back(id);
+    pos = comma + 1;
+  }
+  return ids;
+}
 
 }  // namespace cairn::tools

@@ -2,6 +2,7 @@
 // boolean flags and positionals, with --help generated from the same table.
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -53,5 +54,8 @@ class ArgParser {
 
 // Shared by the sub-commands: prints "cairn: message" to stderr.
 void PrintError(const std::string& message);
+
+// Parses "3,17,42" into ids; throws std::invalid_argument on bad text.
+std::vector<int64_t> ParseIdList(const std::string& text);
 
 }  // namespace cairn::tools

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "cairn/graph/graph_io.h"
+#include "cairn/graph/output_files.h"
 #include "cairn/calibration/odometry_calibration.h"
 #include "cairn/frontend/calibration_log.h"
 #include "tools/args.h"

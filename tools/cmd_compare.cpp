@@ -8,6 +8,7 @@
 #include "cairn/solvers/ceres_solver.h"
 #include "cairn/solvers/graph_gauss_newton.h"
 #include "cairn/graph/graph_io.h"
+#include "cairn/graph/output_files.h"
 #include "cairn/graph/initialization.h"
 #include "cairn/graph/pose_difference.h"
 #include "tools/args.h"

@@ -5,6 +5,7 @@
 #include <ostream>
 
 #include "cairn/graph/graph_io.h"
+#include "cairn/graph/output_files.h"
 #include "cairn/robust/outliers.h"
 #include "tools/args.h"
 #include "tools/command.h"

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "cairn/graph/graph_io.h"
+#include "cairn/graph/output_files.h"
 #include "cairn/frontend/trajectory.h"
 #include "tools/args.h"
 #include "tools/command.h"

@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "cairn/graph/graph_io.h"
+#include "cairn/graph/output_files.h"
 #include "cairn/frontend/carmen_log.h"
 #include "cairn/frontend/mapper.h"
 #include "cairn/frontend/svg.h"

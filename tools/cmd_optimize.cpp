@@ -9,6 +9,7 @@
 #include "cairn/solvers/covariance.h"
 #include "cairn/solvers/graph_gauss_newton.h"
 #include "cairn/graph/graph_io.h"
+#include "cairn/graph/output_files.h"
 #include "cairn/graph/initialization.h"
 #include "cairn/robust/outliers.h"
 #include "cairn/solvers/solve_result.h"

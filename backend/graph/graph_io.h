@@ -3,7 +3,6 @@
 // TORO (VERTEX2, EDGE2, VERTEX3, EDGE3). Errors name the file and line.
 #pragma once
 
-#include <functional>
 #include <iosfwd>
 #include <stdexcept>
 #include <string>
@@ -43,9 +42,5 @@ PoseGraph ReadGraph(std::istream& in, const std::string& name, const ReadOptions
 // beside its destination and renamed when complete: never a half file.
 void WriteG2o(const PoseGraph& graph, const std::string& path);
 void WriteG2o(const PoseGraph& graph, std::ostream& out);
-
-// Writes a file atomically: `fill` writes to a temporary stream, which is
-// renamed onto `path` only if `fill` returns without throwing.
-void WriteFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& fill);
 
 }  // namespace cairn

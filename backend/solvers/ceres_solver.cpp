@@ -1,5 +1,6 @@
 #include "cairn/solvers/ceres_solver.h"
 
+#include <ceres/covariance.h>
 #include <ceres/iteration_callback.h>
 #include <ceres/solver.h>
 
@@ -282,6 +283,37 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
   result.usable = summary.IsSolutionUsable();
   result.time_s = Seconds(start);
   return result;
+}
+
+std::vector<Eigen::MatrixXd> CeresMarginalCovariances(ceres::Problem& problem,
+                                                      const std::vector<const double*>& blocks,
+                                                      int threads) {
+  std::vector<Eigen::MatrixXd> out;
+  std::vector<std::pair<const double*, const double*>> pairs;
+  for (const double* b : blocks) {
+    const int tangent = problem.ParameterBlockTangentSize(b);
+    out.push_back(Eigen::MatrixXd::Zero(tangent, tangent));
+    // Ceres would answer zeros for a constant block too; asking for it only
+    // costs a Jacobian column.
+    if (!problem.IsParameterBlockConstant(b)) pairs.emplace_back(b, b);
+  }
+  if (pairs.empty()) return out;
+  ceres::Covariance::Options options;
+  options.num_threads = threads;
+  // SPARSE_QR (the default) factors the Jacobian, not J^T J: it never squares
+  // the condition number, so it is an independent check on the Cholesky path.
+  options.algorithm_type = ceres::SPARSE_QR;
+  ceres::Covariance covariance(options);
+  if (!covariance.Compute(pairs, &problem))
+    throw std::runtime_error("Ceres could not compute the covariance (rank-deficient Jacobian)");
+  for (size_t k = 0; k < blocks.size(); ++k) {
+    if (problem.IsParameterBlockConstant(blocks[k])) continue;
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> c(out[k].rows(),
+                                                                             out[k].cols());
+    covariance.GetCovarianceBlockInTangentSpace(blocks[k], blocks[k], c.data());
+    out[k] = c;
+  }
+  return out;
 }
 
 }  // namespace cairn

@@ -91,4 +91,12 @@ int ResolveThreads(int requested);
 // Ceres's cost, which includes the loss when one is set.
 SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options = {});
 
+// Ceres's covariance of the given parameter blocks of `problem` at their
+// current values, in their manifolds' tangent spaces; zeros for constant
+// blocks. Throws std::runtime_error when Ceres cannot compute it (a rank-
+// deficient Jacobian).
+std::vector<Eigen::MatrixXd> CeresMarginalCovariances(ceres::Problem& problem,
+                                                      const std::vector<const double*>& blocks,
+                                                      int threads = 1);
+
 }  // namespace cairn

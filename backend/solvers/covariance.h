@@ -7,25 +7,15 @@
 // to fix the gauge has none and gets zeros.
 #pragma once
 
-#include <ceres/problem.h>
-
 #include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
 
-#include "cairn/solvers/incremental.h"
 #include "cairn/graph/pose_graph.h"
+#include "cairn/solvers/solve_result.h"
 
 namespace cairn {
-
-// Ceres's covariance of the given parameter blocks of `problem` at their
-// current values, in their manifolds' tangent spaces; zeros for constant
-// blocks. Throws std::runtime_error when Ceres cannot compute it (a rank-
-// deficient Jacobian).
-std::vector<Eigen::MatrixXd> CeresMarginalCovariances(ceres::Problem& problem,
-                                                      const std::vector<const double*>& blocks,
-                                                      int threads = 1);
 
 // The marginal covariances of the listed vertices of `graph` at its current
 // estimate (normally the optimum), with the same factors and gauge as the
@@ -35,8 +25,5 @@ std::vector<Eigen::MatrixXd> MarginalCovariances(const PoseGraph& graph,
                                                  const std::vector<int64_t>& ids,
                                                  SolverKind solver = SolverKind::kCeres,
                                                  const RobustLoss& loop_closure_loss = {});
-
-// Parses "3,17,42" into ids; throws std::invalid_argument on bad text.
-std::vector<int64_t> ParseIdList(const std::string& text);
 
 }  // namespace cairn

@@ -8,7 +8,6 @@
 #include <thread>
 
 #include "cairn/graph/chi2.h"
-#include "cairn/solvers/covariance.h"
 #include "cairn/solvers/graph_factors.h"
 #include "cairn/linear/serial_scope.h"
 #include "cairn/factors/pose_manifold.h"

@@ -23,8 +23,6 @@
 
 namespace cairn {
 
-enum class SolverKind { kCeres, kGaussNewton };
-
 struct IncrementalOptions {
   // The robust loss on loop closures (both solvers); the one inside `ceres`
   // and `gauss_newton` is ignored.

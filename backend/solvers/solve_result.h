@@ -13,6 +13,9 @@ namespace cairn {
 
 // A robust loss applied to loop closures only: odometry and priors are
 // trusted, wrong loop closures are what robust losses are for.
+// Which of the two solvers runs: the Ceres path or cairn's own Gauss-Newton.
+enum class SolverKind { kCeres, kGaussNewton };
+
 struct RobustLoss {
   // kDcs: dynamic covariance scaling (Agarwal et al. 2013), the kernel made
   // for pose graphs; its width PHI is on the squared error (chi2), as in the

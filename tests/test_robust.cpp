@@ -16,6 +16,8 @@
 #include "cairn/solvers/graph_gauss_newton.h"
 #include "cairn/graph/graph_io.h"
 #include "cairn/robust/leverage.h"
+#include "cairn/robust/corrupt.h"
+#include "cairn/robust/local_consistency.h"
 #include "cairn/robust/outliers.h"
 #include "cairn/graph/pose_difference.h"
 #include "cairn/graph/simulate.h"

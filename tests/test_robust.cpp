@@ -16,6 +16,8 @@
 #include "cairn/solvers/graph_gauss_newton.h"
 #include "cairn/graph/graph_io.h"
 #include "cairn/robust/leverage.h"
+#include "cairn/robust/corrupt.h"
+#include "cairn/robust/local_consistency.h"
 #include "cairn/robust/outliers.h"
 #include "cairn/graph/pose_difference.h"
 #include "cairn/graph/simulate.h"
@@ -379,6 +381,43 @@ TEST(Gnc, VerificationRejectsAWrongLoopClosureThatGncKept) {
     EXPECT_EQ(with.verified, 1);
     EXPECT_LT(RmsPositionDifference(g, reference), 1e-6) << (gn ? "gn" : "ceres");
   }
+}
+
+TEST(Gnc, WithoutWrongLoopClosuresEveryStageKeepsThemAll) {
+  // Each stage on and off in turn: none may reject a good loop closure, and
+  // the result is the plain solve's.
+  PoseGraph reference = Simulated(2, 200, 5).noisy;
+  const size_t closures = reference.CountEdges(EdgeKind::kLoopClosure);
+  ASSERT_GT(closures, 0u);
+  const PoseGraph start = reference;
+  SolveWithCeres(reference, QuietCeres());
+  const double reference_chi2 = Chi2(reference);
+  const GraphSolver solver = [](PoseGraph& x, int) { return SolveWithCeres(x, QuietCeres()); };
+  for (int window : {0, 5})
+    for (bool verify : {false, true})
+      for (bool readmit : {false, true}) {
+        OutlierRejectionOptions options;
+        options.consistency_window = window;
+        options.verify = verify;
+        options.readmit = readmit;
+        PoseGraph g = start;
+        const auto r = SolveRejectingOutliers(g, solver, options);
+        const std::string stages = "window " + std::to_string(window) + (verify ? " verify" : "") +
+                                   (readmit ? " readmit" : "");
+        EXPECT_TRUE(r.rejected.empty()) << stages;
+        EXPECT_EQ(r.verified, 0) << stages;
+        EXPECT_GE(r.rounds, 2) << stages;  // at least one weighted solve and the last one
+        EXPECT_DOUBLE_EQ(r.threshold_chi2, LoopClosureThreshold(0.999, 3, closures)) << stages;
+        EXPECT_NEAR(r.solve.final_chi2, reference_chi2, 1e-6 * reference_chi2) << stages;
+        EXPECT_LT(MaxPositionDifference(g, reference), 1e-6) << stages;
+      }
+  OutlierRejectionOptions bad;
+  bad.mu_factor = 1;
+  PoseGraph g = start;
+  EXPECT_THROW(SolveRejectingOutliers(g, solver, bad), std::invalid_argument);
+  bad = OutlierRejectionOptions();
+  bad.max_rounds = 0;
+  EXPECT_THROW(SolveRejectingOutliers(g, solver, bad), std::invalid_argument);
 }
 
 TEST(Gnc, LocalSupportConfirmsRunsOfGoodLoopClosuresOnly) {

@@ -6,7 +6,7 @@
 
 #include "cairn/graph/graph_io.h"
 #include "cairn/graph/output_files.h"
-#include "cairn/robust/outliers.h"
+#include "cairn/robust/corrupt.h"
 #include "tools/args.h"
 #include "tools/command.h"
 

@@ -103,13 +103,12 @@ void CheckExcitation(const std::vector<CalibrationPair>& pairs, double threshold
       "cannot be told apart along that combination");
 }
 
-CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOptions& options) {
-  const std::vector<CalibrationPair>& pairs = data.pairs;
-  CheckExcitation(pairs, options.degeneracy_threshold);
-  CalibrationResult result;
-  result.pairs = pairs.size();
+namespace {
 
-  // Closed form: the normal equations H vec(X) = g, by Cholesky.
+// The closed form: the normal equations H vec(X) = g, by Cholesky. Fills
+// x_closed_form and x, and leaves the factorisation of H in `llt`.
+void SolveClosedForm(const std::vector<CalibrationPair>& pairs, Eigen::LLT<Matrix9d>* llt,
+                     CalibrationResult* result) {
   Matrix9d h = Matrix9d::Zero();
   Vector9d g = Vector9d::Zero();
   for (const CalibrationPair& p : pairs) {
@@ -117,95 +116,116 @@ CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOption
     h += a.transpose() * p.information * a;
     g += a.transpose() * p.information * p.u_star;
   }
-  const Eigen::LLT<Matrix9d> llt(h);
-  if (llt.info() != Eigen::Success)
+  llt->compute(h);
+  if (llt->info() != Eigen::Success)
     throw DegenerateCalibration("the normal matrix of X is not positive definite");
-  const Vector9d x = llt.solve(g);
-  result.x_closed_form = FromRowMajor(x.data());
-  result.x = result.x_closed_form;
+  const Vector9d x = llt->solve(g);
+  result->x_closed_form = FromRowMajor(x.data());
+  result->x = result->x_closed_form;
+}
 
-  // Residuals before (X = I) and after.
+// Residuals before (X = I) and after; returns the residual sum of squares
+// after.
+double FillResiduals(const std::vector<CalibrationPair>& pairs, CalibrationResult* result) {
   double rss_before = 0, rss_after = 0;
   Eigen::Vector3d sq_before = Eigen::Vector3d::Zero(), sq_after = Eigen::Vector3d::Zero();
   for (const CalibrationPair& p : pairs) {
-    const Eigen::Vector3d e0 = p.u_star - p.u, e1 = p.u_star - result.x * p.u;
+    const Eigen::Vector3d e0 = p.u_star - p.u, e1 = p.u_star - result->x * p.u;
     sq_before += e0.cwiseAbs2();
     sq_after += e1.cwiseAbs2();
-    result.chi2_before += e0.dot(p.information * e0);
-    result.chi2_after += e1.dot(p.information * e1);
+    result->chi2_before += e0.dot(p.information * e0);
+    result->chi2_after += e1.dot(p.information * e1);
   }
   rss_before = sq_before.sum();
   rss_after = sq_after.sum();
   const double n = static_cast<double>(pairs.size());
-  result.rms_before = std::sqrt(rss_before / (3 * n));
-  result.rms_after = std::sqrt(rss_after / (3 * n));
-  result.rms_before_xyt = (sq_before / n).cwiseSqrt();
-  result.rms_after_xyt = (sq_after / n).cwiseSqrt();
+  result->rms_before = std::sqrt(rss_before / (3 * n));
+  result->rms_after = std::sqrt(rss_after / (3 * n));
+  result->rms_before_xyt = (sq_before / n).cwiseSqrt();
+  result->rms_after_xyt = (sq_after / n).cwiseSqrt();
+  return rss_after;
+}
 
-  // Uncertainty: with information matrices the residuals are whitened and
-  // H^-1 is the covariance; without, the noise level is fitted from the
-  // residuals themselves (3N equations, 9 unknowns).
+// Uncertainty: with information matrices the residuals are whitened and
+// H^-1 is the covariance; without, the noise level is fitted from the
+// residuals themselves (3N equations, 9 unknowns).
+void FillCovariance(const CalibrationData& data, const Eigen::LLT<Matrix9d>& llt, double rss_after,
+                    CalibrationResult* result) {
   const Matrix9d h_inv = llt.solve(Matrix9d::Identity());
   if (data.has_information) {
-    result.covariance_from_information = true;
-    result.sigma2 = 1;
-    result.covariance = h_inv;
+    result->covariance_from_information = true;
+    result->sigma2 = 1;
+    result->covariance = h_inv;
   } else {
-    const double dof = 3 * n - 9;
-    result.sigma2 = dof > 0 ? rss_after / dof : std::numeric_limits<double>::quiet_NaN();
-    result.covariance = result.sigma2 * h_inv;
+    const double dof = 3 * static_cast<double>(data.pairs.size()) - 9;
+    result->sigma2 = dof > 0 ? rss_after / dof : std::numeric_limits<double>::quiet_NaN();
+    result->covariance = result->sigma2 * h_inv;
   }
-  for (int i = 0; i < 9; ++i) result.x_std(i / 3, i % 3) = std::sqrt(result.covariance(i, i));
+  for (int i = 0; i < 9; ++i) result->x_std(i / 3, i % 3) = std::sqrt(result->covariance(i, i));
+}
 
-  // Hand-written Gauss-Newton from X = I: one iteration, as the problem is linear.
-  if (options.run_gauss_newton) {
-    double xg[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-    GaussNewtonProblem problem;
-    problem.AddParameterBlock(xg, 9);
-    for (const CalibrationPair& p : pairs)
-      problem.AddResidualBlock(factors::OdometryCalibrationFactor::Create(p.u, p.u_star, p.information),
-                               nullptr, {xg});
-    GaussNewtonOptions o;
-    o.max_iterations = 1;
-    o.threads = 1;
-    o.verbose = false;
-    o.gradient_tolerance = 0;  // always take the step, even from a near-perfect start
-    const SolveResult r = problem.Solve(o);
-    result.gauss_newton_iterations = r.iterations;
-    result.x_gauss_newton = FromRowMajor(xg);
-    result.has_gauss_newton = true;
-    result.max_disagreement = std::max(
-        result.max_disagreement, (result.x_gauss_newton - result.x).cwiseAbs().maxCoeff());
-  }
+// Hand-written Gauss-Newton from X = I: one iteration, as the problem is linear.
+void SolveByGaussNewton(const std::vector<CalibrationPair>& pairs, CalibrationResult* result) {
+  double xg[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  GaussNewtonProblem problem;
+  problem.AddParameterBlock(xg, 9);
+  for (const CalibrationPair& p : pairs)
+    problem.AddResidualBlock(factors::OdometryCalibrationFactor::Create(p.u, p.u_star, p.information),
+                             nullptr, {xg});
+  GaussNewtonOptions o;
+  o.max_iterations = 1;
+  o.threads = 1;
+  o.verbose = false;
+  o.gradient_tolerance = 0;  // always take the step, even from a near-perfect start
+  const SolveResult r = problem.Solve(o);
+  result->gauss_newton_iterations = r.iterations;
+  result->x_gauss_newton = FromRowMajor(xg);
+  result->has_gauss_newton = true;
+  result->max_disagreement = std::max(
+      result->max_disagreement, (result->x_gauss_newton - result->x).cwiseAbs().maxCoeff());
+}
 
-  // Ceres on the same autodiff factor. Levenberg-Marquardt with a huge first
-  // radius is Gauss-Newton in effect; tolerances at round-off so that the
-  // three answers can be compared to 1e-9.
-  if (options.run_ceres) {
-    double xc[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-    ceres::Problem problem;
-    for (const CalibrationPair& p : pairs)
-      problem.AddResidualBlock(factors::OdometryCalibrationFactor::Create(p.u, p.u_star, p.information),
-                               nullptr, xc);
-    ceres::Solver::Options so;
-    so.linear_solver_type = ceres::DENSE_QR;
-    so.initial_trust_region_radius = 1e16;
-    so.max_num_iterations = 50;
-    so.function_tolerance = 1e-16;
-    so.gradient_tolerance = 1e-16;
-    so.parameter_tolerance = 1e-16;
-    so.logging_type = ceres::SILENT;
-    so.minimizer_progress_to_stdout = false;
-    so.num_threads = 1;
-    ceres::Solver::Summary summary;
-    ceres::Solve(so, &problem, &summary);
-    result.ceres_termination = ceres::TerminationTypeToString(summary.termination_type);
-    result.x_ceres = FromRowMajor(xc);
-    result.has_ceres = true;
-    result.max_disagreement =
-        std::max(result.max_disagreement, (result.x_ceres - result.x).cwiseAbs().maxCoeff());
-  }
+// Ceres on the same autodiff factor. Levenberg-Marquardt with a huge first
+// radius is Gauss-Newton in effect; tolerances at round-off so that the
+// three answers can be compared to 1e-9.
+void SolveByCeres(const std::vector<CalibrationPair>& pairs, CalibrationResult* result) {
+  double xc[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  ceres::Problem problem;
+  for (const CalibrationPair& p : pairs)
+    problem.AddResidualBlock(factors::OdometryCalibrationFactor::Create(p.u, p.u_star, p.information),
+                             nullptr, xc);
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.initial_trust_region_radius = 1e16;
+  so.max_num_iterations = 50;
+  so.function_tolerance = 1e-16;
+  so.gradient_tolerance = 1e-16;
+  so.parameter_tolerance = 1e-16;
+  so.logging_type = ceres::SILENT;
+  so.minimizer_progress_to_stdout = false;
+  so.num_threads = 1;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  result->ceres_termination = ceres::TerminationTypeToString(summary.termination_type);
+  result->x_ceres = FromRowMajor(xc);
+  result->has_ceres = true;
+  result->max_disagreement =
+      std::max(result->max_disagreement, (result->x_ceres - result->x).cwiseAbs().maxCoeff());
+}
 
+}  // namespace
+
+CalibrationResult Calibrate(const CalibrationData& data, const CalibrationOptions& options) {
+  const std::vector<CalibrationPair>& pairs = data.pairs;
+  CheckExcitation(pairs, options.degeneracy_threshold);
+  CalibrationResult result;
+  result.pairs = pairs.size();
+  Eigen::LLT<Matrix9d> llt;
+  SolveClosedForm(pairs, &llt, &result);
+  const double rss_after = FillResiduals(pairs, &result);
+  FillCovariance(data, llt, rss_after, &result);
+  if (options.run_gauss_newton) SolveByGaussNewton(pairs, &result);
+  if (options.run_ceres) SolveByCeres(pairs, &result);
   if (!data.reference_poses.empty() &&
       data.reference_poses.size() == data.raw_increments.size() + 1)
     result.dead_reckoning = CompareDeadReckoning(data, result.x);

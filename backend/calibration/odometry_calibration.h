@@ -1,5 +1,5 @@
-// Odometry calibration, the seeds' worked example: the 3x3 matrix X with
-// u*_i = X u_i in the least-squares sense, from pairs of raw odometry
+// Odometry calibration of a planar robot (`cairn calibrate`): the 3x3 matrix
+// X with u*_i = X u_i in the least-squares sense, from pairs of raw odometry
 // increments u and reference increments u* (scan matching, SLAM). Solved three
 // ways that must agree: closed form, one Gauss-Newton step, Ceres.
 #pragma once

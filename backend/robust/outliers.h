@@ -1,45 +1,23 @@
-// Wrong loop closures: adding them on purpose (to measure robustness) and
-// finding them (graduated non-convexity with a truncated least-squares cost),
-// with either solver doing the inner weighted least-squares solves.
+// Finding wrong loop closures: graduated non-convexity with a truncated
+// least-squares cost, with either solver doing the inner weighted
+// least-squares solves, then verification and re-admission of single loop
+// closures (docs/robustness.md describes the stages).
 #pragma once
 
-#include <cstdint>
+#include <cstddef>
 #include <functional>
-#include <utility>
 #include <vector>
 
 #include "cairn/graph/pose_graph.h"
+#include "cairn/robust/vertex_pair.h"
 #include "cairn/solvers/solve_result.h"
 
 namespace cairn {
-
-using VertexPair = std::pair<int64_t, int64_t>;
-
-// Adds `count` loop closures between random pairs of distinct, non-consecutive
-// vertices not yet joined, each with a random measurement (translation
-// uniform within the largest loop-closure translation, rotation uniform) and
-// the information of the graph's median loop closure (by trace; the median
-// odometry edge's when there is none). Returns the pairs added, in order.
-// Throws std::invalid_argument when the graph is too small to take them.
-std::vector<VertexPair> AddWrongLoopClosures(PoseGraph& graph, int count, uint64_t seed);
 
 // The p-quantile of the chi-squared distribution with `dof` degrees of
 // freedom, by bisection on its survival function (closed form for integer
 // dof), to a relative 1e-12.
 double ChiSquaredQuantile(double p, int dof);
-
-// Local pairwise consistency: two loop closures whose ends both lie within
-// `window` ids of each other's form a short cycle with the odometry between
-// their ends (a->c by odometry, c->d by the second closure, d->b by
-// odometry, back to a by the first). They agree when the cycle's error, in
-// the first closure's frame, is within `threshold_chi2` of its covariance
-// (the measurements' covariances propagated to first order). Returns, per
-// loop closure (in edge order), how many such neighbours agree with it. A
-// pair is skipped when an odometry step between their ends is missing.
-// Good loop closures usually come in runs (a place revisited is seen from
-// several poses in a row); a wrong one rarely has an agreeing neighbour.
-std::vector<int> LocalLoopClosureSupport(const PoseGraph& graph, int window,
-                                         double threshold_chi2);
 
 // The chi2 threshold for `loop_closures` loop closures tested at once, so
 // that all the good ones pass with probability `confidence` (Bonferroni):
@@ -60,7 +38,7 @@ struct OutlierRejectionOptions {
   // solves, without the rejected loop closures, always run to convergence.
   int inner_iterations = 0;
   // Loop closures that a neighbour within this many ids agrees with
-  // (LocalLoopClosureSupport) go through GNC first, alone; 0: no such stage.
+  // (LocalLoopClosureSupport, local_consistency.h) go through GNC first, alone; 0: no such stage.
   int consistency_window = 5;
   // After that stage, GNC over all loop closures starts where a residual
   // beyond this many times the threshold weighs 0 (mu = 1 / (factor - 1)).

@@ -225,25 +225,48 @@ double GaussNewtonProblem::Chi2() {
   return sum;
 }
 
+// The analysis of the last Prepare, kept for one that may extend it.
+struct GaussNewtonProblem::PreviousAnalysis {
+  std::unique_ptr<SparseCholesky> cholesky;
+  std::vector<int> variables;
+  CholeskyKind kind = CholeskyKind::kAuto;
+};
+
 void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   pool_ = std::make_unique<ThreadPool>(
       options.threads > 0 ? options.threads
                           : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
   // A caller that only added to the problem (and says so with an ordering
   // hint) keeps the old analysis, extended, when the new pattern allows.
-  std::unique_ptr<SparseCholesky> kept;
-  std::vector<int> kept_variables;
-  CholeskyKind kept_kind = CholeskyKind::kAuto;
+  PreviousAnalysis previous;
   if (ws_ && ws_->cholesky && !ordering_hint_.empty()) {
-    kept = std::move(ws_->cholesky);
-    kept_variables = std::move(ws_->variables);
-    kept_kind = ws_->linear_solver;
+    previous.cholesky = std::move(ws_->cholesky);
+    previous.variables = std::move(ws_->variables);
+    previous.kind = ws_->linear_solver;
   }
   last_analysis_extended_ = false;
   ws_ = std::make_unique<Workspace>();
   Workspace& w = *ws_;
 
-  // Variables: non-constant blocks that some residual touches, in order.
+  NumberVariables();
+  AllocateJacobians();
+  PlanGradient();
+  const std::vector<int> col_blocks = PlanNormalMatrix();
+  std::vector<int> col_ptr, rows;
+  PlanPattern(col_blocks, &col_ptr, &rows);
+
+  w.b.resize(w.n);
+  w.dx.resize(w.n);
+  w.diagonal_saved.resize(w.n);
+  for (int v : w.variables) w.x_saved.insert(w.x_saved.end(), blocks_[v].values, blocks_[v].values + blocks_[v].size);
+
+  w.linear_solver = ResolveCholeskyKind(options.linear_solver, pool_->size());
+  AnalyzePattern(&previous, col_ptr, rows);
+}
+
+// Variables: non-constant blocks that some residual touches, in order.
+void GaussNewtonProblem::NumberVariables() {
+  Workspace& w = *ws_;
   std::vector<bool> used(blocks_.size(), false);
   for (const Residual& r : residuals_)
     for (int b : r.blocks) used[b] = true;
@@ -258,14 +281,16 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
     w.n += b.tangent;
     variables.push_back(static_cast<int>(i));
   }
-  const int nvar = static_cast<int>(variables.size());
   for (const Block& b : blocks_) {
     w.max_tangent = std::max(w.max_tangent, b.tangent);
     w.max_size = std::max(w.max_size, b.size);
   }
   for (const Residual& r : residuals_) w.max_arity = std::max(w.max_arity, r.blocks.size());
+}
 
-  // Residual and Jacobian storage.
+// Residual and Jacobian storage, and the manifolds' PlusJacobians.
+void GaussNewtonProblem::AllocateJacobians() {
+  Workspace& w = *ws_;
   int r_total = 0, ja_total = 0, jl_total = 0, slots = 0;
   w.residual_offset.resize(residuals_.size());
   w.slot_start.resize(residuals_.size() + 1);
@@ -295,35 +320,49 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   w.jac_ambient.resize(ja_total);
   w.jac_local.resize(jl_total);
   w.chi2_terms.resize(residuals_.size());
+  const int nvar = static_cast<int>(w.variables.size());
   w.plus_jac_off.resize(nvar);
   int pj_total = 0;
   for (int v = 0; v < nvar; ++v) {
     w.plus_jac_off[v] = pj_total;
-    const Block& b = blocks_[variables[v]];
+    const Block& b = blocks_[w.variables[v]];
     pj_total += b.manifold ? b.size * b.tangent : 0;
   }
   w.plus_jac.resize(pj_total);
+}
 
-  // Who feeds each part of b and each block of H's upper triangle, bucketed
-  // by variable (column block) with flat arrays: on a 10,000-pose graph a
-  // tree of blocks cost more than the symbolic factorisation.
-  auto for_each_slot = [&](auto&& f) {
-    for (size_t k = 0; k < residuals_.size(); ++k) {
-      const auto& rb = residuals_[k].blocks;
-      for (size_t p = 0; p < rb.size(); ++p) {
-        const int vp = blocks_[rb[p]].variable;
-        if (vp >= 0) f(static_cast<int>(k), static_cast<int>(p), vp);
-      }
+// f(residual, p, variable) for each parameter block p of each residual that
+// is a variable. Who feeds each part of b and each block of H's upper
+// triangle is bucketed by variable (column block) with flat arrays: on a
+// 10,000-pose graph a tree of blocks cost more than the symbolic
+// factorisation.
+template <typename F>
+void GaussNewtonProblem::ForEachSlot(F&& f) const {
+  for (size_t k = 0; k < residuals_.size(); ++k) {
+    const auto& rb = residuals_[k].blocks;
+    for (size_t p = 0; p < rb.size(); ++p) {
+      const int vp = blocks_[rb[p]].variable;
+      if (vp >= 0) f(static_cast<int>(k), static_cast<int>(p), vp);
     }
-  };
+  }
+}
+
+void GaussNewtonProblem::PlanGradient() {
+  Workspace& w = *ws_;
+  const int nvar = static_cast<int>(w.variables.size());
   w.gradient_start.assign(nvar + 1, 0);
-  for_each_slot([&](int, int, int vp) { ++w.gradient_start[vp + 1]; });
+  ForEachSlot([&](int, int, int vp) { ++w.gradient_start[vp + 1]; });
   for (int v = 0; v < nvar; ++v) w.gradient_start[v + 1] += w.gradient_start[v];
   w.gradient_terms.resize(w.gradient_start[nvar]);
-  {
-    std::vector<int> next(w.gradient_start.begin(), w.gradient_start.end() - 1);
-    for_each_slot([&](int k, int p, int vp) { w.gradient_terms[next[vp]++] = {k, p}; });
-  }
+  std::vector<int> next(w.gradient_start.begin(), w.gradient_start.end() - 1);
+  ForEachSlot([&](int k, int p, int vp) { w.gradient_terms[next[vp]++] = {k, p}; });
+}
+
+// The blocks of H's upper triangle and their terms; returns, per column
+// block c, where its blocks begin in h_blocks (entry c + 1: where they end).
+std::vector<int> GaussNewtonProblem::PlanNormalMatrix() {
+  Workspace& w = *ws_;
+  const int nvar = static_cast<int>(w.variables.size());
   // Each pair p, q of a residual's variables with row block <= column block
   // adds Jp^T Jq to H(row, col).
   struct Entry {
@@ -331,7 +370,7 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
     Workspace::Contribution c;
   };
   auto for_each_pair = [&](auto&& f) {
-    for_each_slot([&](int k, int p, int vp) {
+    ForEachSlot([&](int k, int p, int vp) {
       const auto& rb = residuals_[k].blocks;
       for (size_t q = 0; q < rb.size(); ++q) {
         const int vq = blocks_[rb[q]].variable;
@@ -356,7 +395,7 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   // Within a column, by row block; a block's terms stay in residual order,
   // so sums do not depend on how the pattern was found.
   w.terms.reserve(entries.size());
-  std::vector<int> col_blocks(nvar + 1, 0);  // h_blocks of each column block
+  std::vector<int> col_blocks(nvar + 1, 0);
   for (int c = 0; c < nvar; ++c) {
     const auto first = entries.begin() + col_entries[c], last = entries.begin() + col_entries[c + 1];
     std::stable_sort(first, last, [](const Entry& a, const Entry& b) { return a.row < b.row; });
@@ -368,10 +407,17 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
     }
     col_blocks[c + 1] = static_cast<int>(w.h_blocks.size());
   }
-  std::vector<Entry>().swap(entries);
+  return col_blocks;
+}
 
-  // Scalar CSC pattern of the upper triangle.
-  std::vector<int> col_ptr(w.n + 1, 0), rows;
+// The scalar CSC pattern of H's upper triangle, where each block's columns
+// begin in it, and where each diagonal entry is.
+void GaussNewtonProblem::PlanPattern(const std::vector<int>& col_blocks, std::vector<int>* col_ptr,
+                                     std::vector<int>* rows) {
+  Workspace& w = *ws_;
+  const std::vector<int>& variables = w.variables;
+  const int nvar = static_cast<int>(variables.size());
+  col_ptr->assign(w.n + 1, 0);
   for (auto& hb : w.h_blocks) {
     hb.start = static_cast<int>(w.col_start.size());
     w.col_start.resize(w.col_start.size() + blocks_[variables[hb.col_block]].tangent);
@@ -381,28 +427,32 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
     const Block& cb = blocks_[variables[c]];
     for (int j = 0; j < cb.tangent; ++j) {
       const int col = cb.offset + j;
-      col_ptr[col] = static_cast<int>(rows.size());
+      (*col_ptr)[col] = static_cast<int>(rows->size());
       for (int idx = col_blocks[c]; idx < col_blocks[c + 1]; ++idx) {
         const auto& hb = w.h_blocks[idx];
         const Block& rb = blocks_[variables[hb.row_block]];
-        w.col_start[hb.start + j] = static_cast<int>(rows.size());
+        w.col_start[hb.start + j] = static_cast<int>(rows->size());
         const int height = hb.row_block == c ? j + 1 : rb.tangent;
-        for (int i = 0; i < height; ++i) rows.push_back(rb.offset + i);
+        for (int i = 0; i < height; ++i) rows->push_back(rb.offset + i);
       }
-      w.diagonal[col] = static_cast<int>(rows.size()) - 1;
+      w.diagonal[col] = static_cast<int>(rows->size()) - 1;
     }
   }
-  col_ptr[w.n] = static_cast<int>(rows.size());
+  (*col_ptr)[w.n] = static_cast<int>(rows->size());
+}
 
-  w.b.resize(w.n);
-  w.dx.resize(w.n);
-  w.diagonal_saved.resize(w.n);
-  for (int v : variables) w.x_saved.insert(w.x_saved.end(), blocks_[v].values, blocks_[v].values + blocks_[v].size);
-
-  w.linear_solver = ResolveCholeskyKind(options.linear_solver, pool_->size());
+// The symbolic analysis: the previous one extended when the variables only
+// grew and the linear solver can, else a fresh one (in the hinted order, if
+// any).
+void GaussNewtonProblem::AnalyzePattern(PreviousAnalysis* previous, const std::vector<int>& col_ptr,
+                                        const std::vector<int>& rows) {
+  Workspace& w = *ws_;
+  const std::vector<int>& variables = w.variables;
   std::vector<int> block_sizes;
   for (int v : variables) block_sizes.push_back(blocks_[v].tangent);
-  if (kept && kept_kind == w.linear_solver && kept_variables.size() <= variables.size() &&
+  std::unique_ptr<SparseCholesky>& kept = previous->cholesky;
+  const std::vector<int>& kept_variables = previous->variables;
+  if (kept && previous->kind == w.linear_solver && kept_variables.size() <= variables.size() &&
       std::equal(kept_variables.begin(), kept_variables.end(), variables.begin()) &&
       kept->Extend(w.n, col_ptr, rows, block_sizes)) {
     w.cholesky = std::move(kept);
@@ -413,23 +463,30 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   kept.reset();
   w.cholesky = SparseCholesky::Create(w.linear_solver);
   if (!ordering_hint_.empty()) {
-    std::vector<int> perm;
-    std::vector<bool> placed(nvar, false);
-    for (const double* p : ordering_hint_) {
-      auto it = block_index_.find(p);
-      if (it == block_index_.end()) continue;
-      const int v = blocks_[it->second].variable;
-      if (v < 0 || placed[v]) continue;
-      placed[v] = true;
-      perm.push_back(v);
-    }
-    for (int v = 0; v < nvar; ++v)
-      if (!placed[v]) perm.push_back(v);
-    w.cholesky->SetBlockOrdering(perm);
+    w.cholesky->SetBlockOrdering(HintedOrdering());
     ordering_hint_.clear();
   }
   if (w.n > 0) w.cholesky->Analyze(w.n, col_ptr, rows, block_sizes);
 }
+
+// The variables in the hint's order, those it does not list after them.
+std::vector<int> GaussNewtonProblem::HintedOrdering() const {
+  const int nvar = static_cast<int>(ws_->variables.size());
+  std::vector<int> perm;
+  std::vector<bool> placed(nvar, false);
+  for (const double* p : ordering_hint_) {
+    auto it = block_index_.find(p);
+    if (it == block_index_.end()) continue;
+    const int v = blocks_[it->second].variable;
+    if (v < 0 || placed[v]) continue;
+    placed[v] = true;
+    perm.push_back(v);
+  }
+  for (int v = 0; v < nvar; ++v)
+    if (!placed[v]) perm.push_back(v);
+  return perm;
+}
+
 
 void GaussNewtonProblem::SetParameterBlockVariable(double* values) {
   auto it = block_index_.find(values);
@@ -658,29 +715,28 @@ void GaussNewtonProblem::ApplyStep() {
   });
 }
 
-SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
-  const auto t0 = std::chrono::steady_clock::now();
-  SerialLinearAlgebraScope serial;  // the factorisations' libraries on this thread alone
-  SolveResult result;
-  result.solver = "gn";
-  Prepare(options);
-  Workspace& w = *ws_;
-  result.linear_solver = ToString(w.linear_solver);
-  if ((w.linear_solver == CholeskyKind::kSupernodalOrSimplicial ||
-       w.linear_solver == CholeskyKind::kTwoHalves) && w.cholesky)
-    result.linear_solver += ": " + w.cholesky->Method();
-  auto progress = [&](const IterationRecord& it) {
-    if (options.verbose) std::fprintf(stderr, "%s\n", FormatIteration(it).c_str());
-  };
+// One Solve's progress: the estimate's chi2, the trust region, what the
+// workspace holds, and the result so far.
+struct GaussNewtonProblem::SolveState {
+  SolveState(const GaussNewtonOptions& o, std::chrono::steady_clock::time_point start)
+      : options(o), t0(start), damping(o.damping) {}
 
-  result.setup_time_s = Seconds(t0);
-  // Every candidate is evaluated with its Jacobians and gradient: accepted
-  // (the common case) it needs no evaluation of its own next iteration.
-  double chi2 = LinearizeGradient();
+  const GaussNewtonOptions& options;
+  const std::chrono::steady_clock::time_point t0;
+  SolveResult result;
+  CholeskyKind linear_solver = CholeskyKind::kAuto;
+  double chi2 = 0;
   bool jacobians_current = true;  // J and b in the workspace are at the estimate
-  result.linearize_time_s += Seconds(t0) - result.setup_time_s;
-  result.initial_chi2 = chi2;
-  auto record = [&](int iteration, double step_norm, bool accepted, double solve_s) {
+  // Pure Gauss-Newton until a step fails; from then on Levenberg-Marquardt
+  // with Ceres's trust-region schedule (its radius is 1/lambda), so that
+  // on a problem with several minima both paths walk the same way.
+  bool pure_gauss_newton = true;
+  double damping, decrease_factor = 2;
+  double last_decrease = 1.0;
+  bool have_factor = false;  // the last factorisation is of a full step's H
+  bool done = false;         // Finish was called
+
+  void Record(int iteration, double step_norm, bool accepted, double solve_s) {
     IterationRecord it;
     it.iteration = iteration;
     it.chi2 = chi2;
@@ -689,170 +745,231 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
     it.accepted = accepted;
     it.linear_solver_time_s = solve_s;
     result.trace.push_back(it);
-    progress(it);
-  };
-  record(0, 0, true, 0);
-  auto finish = [&](const char* termination, const std::string& message, bool converged) {
+    if (options.verbose) std::fprintf(stderr, "%s\n", FormatIteration(it).c_str());
+  }
+  void Finish(const char* termination, const std::string& message, bool converged) {
     result.termination = termination;
-    result.message = message + " (linear solver " + ToString(w.linear_solver) + ")";
+    result.message = message + " (linear solver " + ToString(linear_solver) + ")";
     result.converged = converged;
     result.final_chi2 = chi2;
     result.usable = std::isfinite(chi2) && chi2 <= result.initial_chi2;
     result.time_s = Seconds(t0);
-    return result;
-  };
-  if (!std::isfinite(chi2))
-    return finish("failure", "the initial estimate gives a non-finite chi-squared", false);
-  if (w.n == 0) return finish("convergence", "nothing to optimise: every block is constant", true);
-
-  bool pure_gauss_newton = true;
-  double damping = options.damping, decrease_factor = 2;
-  double last_decrease = 1.0;
-  bool have_factor = false;
-  for (int iter = 1; iter <= options.max_iterations; ++iter) {
-    // Near the optimum H hardly changes: a step with the last factorisation
-    // (a chord step) costs a linearisation and two triangular solves instead
-    // of a factorisation. Kept only if it lowers chi2; else a full step.
-    if (options.reuse_factorization && have_factor && last_decrease < kChordThreshold) {
-      const auto tl = std::chrono::steady_clock::now();
-      if (!jacobians_current) LinearizeGradient();
-      result.linearize_time_s += Seconds(tl);
-      SaveEstimate();
-      double step_norm = 0;
-      const auto ts = std::chrono::steady_clock::now();
-      const bool ok = SolveWithLastFactor(&step_norm);
-      const double solve_s = Seconds(ts);
-      result.linear_solver_time_s += solve_s;
-      if (ok) {
-        ApplyStep();
-        const auto te = std::chrono::steady_clock::now();
-        const double new_chi2 = LinearizeGradient();
-        result.linearize_time_s += Seconds(te);
-        jacobians_current = true;
-        if (std::isfinite(new_chi2) && new_chi2 <= chi2) {
-          const double decrease = (chi2 - new_chi2) / std::max(chi2, std::numeric_limits<double>::min());
-          chi2 = new_chi2;
-          result.iterations = iter;
-          ++result.reused_factorizations;
-          record(iter, step_norm, true, solve_s);
-          if (decrease < options.function_tolerance)
-            return finish("convergence",
-                          "function tolerance reached: relative decrease " + std::to_string(decrease),
-                          true);
-          last_decrease = decrease;
-          continue;
-        }
-        RestoreEstimate();
-        jacobians_current = false;
-        // Within rounding of chi2: the estimate is at the minimum already,
-        // and a full step would only confirm it at the price of a factorisation.
-        if (std::isfinite(new_chi2) && new_chi2 - chi2 <= 1e-12 * chi2) {
-          result.iterations = iter;
-          record(iter, step_norm, false, solve_s);
-          return finish("convergence",
-                        "converged: the next step changes chi-squared only within rounding", true);
-        }
-      }
-      have_factor = false;  // fall through: a full step from the same point
-    }
-    const auto tl = std::chrono::steady_clock::now();
-    if (jacobians_current) {
-      AssembleNormalMatrix();
-    } else {
-      Linearize();
-    }
-    jacobians_current = false;
-    result.linearize_time_s += Seconds(tl);
-    const double g_max = Eigen::Map<const Eigen::VectorXd>(w.b.data(), w.n).cwiseAbs().maxCoeff();
-    if (g_max <= options.gradient_tolerance)
-      return finish("convergence",
-                    "gradient tolerance reached: max |g| " + std::to_string(g_max), true);
-    SaveEstimate();
-    double x_norm = 0;
-    for (double v : w.x_saved) x_norm += v * v;
-    x_norm = std::sqrt(x_norm);
-
-    // Pure Gauss-Newton until a step fails; from then on Levenberg-Marquardt
-    // with Ceres's trust-region schedule (its radius is 1/lambda), so that
-    // on a problem with several minima both paths walk the same way.
-    double solve_s = 0, new_chi2 = chi2, step_norm = 0, rho = 1;
-    bool accepted = false, at_rounding = false;
-    for (;;) {
-      const double lambda = pure_gauss_newton ? 0.0 : damping;
-      const auto ts = std::chrono::steady_clock::now();
-      bool ok = SolveStep(lambda, &step_norm);
-      const double s = Seconds(ts);
-      solve_s += s;
-      result.linear_solver_time_s += s;
-      if (ok) {
-        const double predicted = PredictedDecrease(lambda);
-        ApplyStep();
-        // The gradient at this point is needed again if the step is refused.
-        w.b_saved.assign(w.b.begin(), w.b.end());
-        const auto te = std::chrono::steady_clock::now();
-        new_chi2 = LinearizeGradient();
-        result.linearize_time_s += Seconds(te);
-        rho = predicted > 0 ? (chi2 - new_chi2) / predicted : -1;
-        if (std::isfinite(new_chi2) && new_chi2 <= chi2 && rho > kMinRelativeDecrease) {
-          accepted = true;
-          break;
-        }
-        RestoreEstimate();
-        w.b.swap(w.b_saved);
-        // A change within rounding of chi2 means the estimate is already at
-        // the minimum: damping would only repeat the same factorisation.
-        if (std::isfinite(new_chi2) && std::abs(new_chi2 - chi2) <= 1e-12 * chi2) {
-          at_rounding = true;
-          break;
-        }
-      }
-      damping *= decrease_factor;
-      decrease_factor *= 2;
-      if (options.verbose)
-        std::fprintf(stderr, "         %s step %s; trying a damped step (lambda %.1e)\n",
-                     pure_gauss_newton ? "Gauss-Newton" : "damped",
-                     !ok ? "met normal equations that are not positive definite"
-                     : !(new_chi2 <= chi2) ? "raised chi2"
-                                           : "lowered chi2 by under 0.1% of what its model predicted",
-                     damping);
-      pure_gauss_newton = false;
-      if (damping > kMaxDamping) break;
-    }
-    result.iterations = iter;
-    jacobians_current = accepted;  // else the workspace holds the refused candidate's
-    if (accepted) {
-      // Ceres's rule: a step that did what the model said widens the trust
-      // region (up to 3 times), a poor one narrows it.
-      damping = std::max(kMinDamping,
-                         damping * std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3)));
-      decrease_factor = 2;
-    }
-    if (at_rounding) {
-      record(iter, step_norm, false, solve_s);
-      return finish("convergence",
-                    "converged: the next step changes chi-squared only within rounding", true);
-    }
-    if (!accepted) {
-      record(iter, step_norm, false, solve_s);
-      return finish("convergence",
-                    "no step lowers chi-squared, damped or not: the estimate is a minimum "
-                    "to the solver's precision",
-                    true);
-    }
-    const double decrease = (chi2 - new_chi2) / std::max(chi2, std::numeric_limits<double>::min());
-    chi2 = new_chi2;
-    last_decrease = decrease;
-    have_factor = true;
-    record(iter, step_norm, true, solve_s);
-    if (decrease < options.function_tolerance)
-      return finish("convergence",
-                    "function tolerance reached: relative decrease " + std::to_string(decrease),
-                    true);
-    if (step_norm <= options.parameter_tolerance * (x_norm + options.parameter_tolerance))
-      return finish("convergence", "parameter tolerance reached", true);
+    done = true;
   }
-  return finish("no_convergence",
-                "iteration limit reached (" + std::to_string(options.max_iterations) + ")", false);
+  void FinishFunctionTolerance(double decrease) {
+    Finish("convergence", "function tolerance reached: relative decrease " + std::to_string(decrease),
+           true);
+  }
+  void FinishAtRounding() {
+    Finish("convergence", "converged: the next step changes chi-squared only within rounding", true);
+  }
+};
+
+// A full step (pure or damped) from the current estimate, as DampedStep
+// leaves it.
+struct GaussNewtonProblem::TrialStep {
+  double solve_s = 0, new_chi2 = 0, step_norm = 0, rho = 1;
+  bool accepted = false, at_rounding = false;
+};
+
+SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  SerialLinearAlgebraScope serial;  // the factorisations' libraries on this thread alone
+  SolveState s(options, t0);
+  SolveResult& result = s.result;
+  result.solver = "gn";
+  Prepare(options);
+  Workspace& w = *ws_;
+  s.linear_solver = w.linear_solver;
+  result.linear_solver = ToString(w.linear_solver);
+  if ((w.linear_solver == CholeskyKind::kSupernodalOrSimplicial ||
+       w.linear_solver == CholeskyKind::kTwoHalves) && w.cholesky)
+    result.linear_solver += ": " + w.cholesky->Method();
+
+  result.setup_time_s = Seconds(t0);
+  // Every candidate is evaluated with its Jacobians and gradient: accepted
+  // (the common case) it needs no evaluation of its own next iteration.
+  s.chi2 = LinearizeGradient();
+  s.jacobians_current = true;
+  result.linearize_time_s += Seconds(t0) - result.setup_time_s;
+  result.initial_chi2 = s.chi2;
+  s.Record(0, 0, true, 0);
+  if (!std::isfinite(s.chi2)) {
+    s.Finish("failure", "the initial estimate gives a non-finite chi-squared", false);
+    return result;
+  }
+  if (w.n == 0) {
+    s.Finish("convergence", "nothing to optimise: every block is constant", true);
+    return result;
+  }
+
+  for (int iter = 1; iter <= options.max_iterations && !s.done; ++iter) {
+    if (options.reuse_factorization && s.have_factor && s.last_decrease < kChordThreshold &&
+        ChordStep(s, iter))
+      continue;
+    FullStep(s, iter);
+  }
+  if (!s.done)
+    s.Finish("no_convergence",
+             "iteration limit reached (" + std::to_string(options.max_iterations) + ")", false);
+  return result;
+}
+
+// Near the optimum H hardly changes: a step with the last factorisation (a
+// chord step) costs a linearisation and two triangular solves instead of a
+// factorisation. Kept only if it lowers chi2. Returns whether the iteration
+// is over (the step was kept, or the solve ended); else a full step follows
+// from the same point.
+bool GaussNewtonProblem::ChordStep(SolveState& s, int iter) {
+  SolveResult& result = s.result;
+  const auto tl = std::chrono::steady_clock::now();
+  if (!s.jacobians_current) LinearizeGradient();
+  result.linearize_time_s += Seconds(tl);
+  SaveEstimate();
+  double step_norm = 0;
+  const auto ts = std::chrono::steady_clock::now();
+  const bool ok = SolveWithLastFactor(&step_norm);
+  const double solve_s = Seconds(ts);
+  result.linear_solver_time_s += solve_s;
+  if (ok) {
+    ApplyStep();
+    const auto te = std::chrono::steady_clock::now();
+    const double new_chi2 = LinearizeGradient();
+    result.linearize_time_s += Seconds(te);
+    s.jacobians_current = true;
+    if (std::isfinite(new_chi2) && new_chi2 <= s.chi2) {
+      const double decrease = (s.chi2 - new_chi2) / std::max(s.chi2, std::numeric_limits<double>::min());
+      s.chi2 = new_chi2;
+      result.iterations = iter;
+      ++result.reused_factorizations;
+      s.Record(iter, step_norm, true, solve_s);
+      if (decrease < s.options.function_tolerance) s.FinishFunctionTolerance(decrease);
+      s.last_decrease = decrease;
+      return true;
+    }
+    RestoreEstimate();
+    s.jacobians_current = false;
+    // Within rounding of chi2: the estimate is at the minimum already,
+    // and a full step would only confirm it at the price of a factorisation.
+    if (std::isfinite(new_chi2) && new_chi2 - s.chi2 <= 1e-12 * s.chi2) {
+      result.iterations = iter;
+      s.Record(iter, step_norm, false, solve_s);
+      s.FinishAtRounding();
+      return true;
+    }
+  }
+  s.have_factor = false;
+  return false;
+}
+
+// Linearisation at the estimate (J and b are there already after an
+// accepted step), the gradient test, then a step and its acceptance.
+void GaussNewtonProblem::FullStep(SolveState& s, int iter) {
+  Workspace& w = *ws_;
+  const auto tl = std::chrono::steady_clock::now();
+  if (s.jacobians_current) {
+    AssembleNormalMatrix();
+  } else {
+    Linearize();
+  }
+  s.jacobians_current = false;
+  s.result.linearize_time_s += Seconds(tl);
+  const double g_max = Eigen::Map<const Eigen::VectorXd>(w.b.data(), w.n).cwiseAbs().maxCoeff();
+  if (g_max <= s.options.gradient_tolerance) {
+    s.Finish("convergence", "gradient tolerance reached: max |g| " + std::to_string(g_max), true);
+    return;
+  }
+  SaveEstimate();
+  double x_norm = 0;
+  for (double v : w.x_saved) x_norm += v * v;
+  x_norm = std::sqrt(x_norm);
+  const TrialStep t = DampedStep(s);
+  s.result.iterations = iter;
+  AcceptStep(s, iter, t, x_norm);
+}
+
+// Steps from the saved estimate, damped more each time one fails, until one
+// lowers chi2 by enough of what its model predicted, one changes it only
+// within rounding, or the damping runs out.
+GaussNewtonProblem::TrialStep GaussNewtonProblem::DampedStep(SolveState& s) {
+  Workspace& w = *ws_;
+  TrialStep t;
+  t.new_chi2 = s.chi2;
+  for (;;) {
+    const double lambda = s.pure_gauss_newton ? 0.0 : s.damping;
+    const auto ts = std::chrono::steady_clock::now();
+    bool ok = SolveStep(lambda, &t.step_norm);
+    const double seconds = Seconds(ts);
+    t.solve_s += seconds;
+    s.result.linear_solver_time_s += seconds;
+    if (ok) {
+      const double predicted = PredictedDecrease(lambda);
+      ApplyStep();
+      // The gradient at this point is needed again if the step is refused.
+      w.b_saved.assign(w.b.begin(), w.b.end());
+      const auto te = std::chrono::steady_clock::now();
+      t.new_chi2 = LinearizeGradient();
+      s.result.linearize_time_s += Seconds(te);
+      t.rho = predicted > 0 ? (s.chi2 - t.new_chi2) / predicted : -1;
+      if (std::isfinite(t.new_chi2) && t.new_chi2 <= s.chi2 && t.rho > kMinRelativeDecrease) {
+        t.accepted = true;
+        return t;
+      }
+      RestoreEstimate();
+      w.b.swap(w.b_saved);
+      // A change within rounding of chi2 means the estimate is already at
+      // the minimum: damping would only repeat the same factorisation.
+      if (std::isfinite(t.new_chi2) && std::abs(t.new_chi2 - s.chi2) <= 1e-12 * s.chi2) {
+        t.at_rounding = true;
+        return t;
+      }
+    }
+    s.damping *= s.decrease_factor;
+    s.decrease_factor *= 2;
+    if (s.options.verbose)
+      std::fprintf(stderr, "         %s step %s; trying a damped step (lambda %.1e)\n",
+                   s.pure_gauss_newton ? "Gauss-Newton" : "damped",
+                   !ok ? "met normal equations that are not positive definite"
+                   : !(t.new_chi2 <= s.chi2) ? "raised chi2"
+                                             : "lowered chi2 by under 0.1% of what its model predicted",
+                   s.damping);
+    s.pure_gauss_newton = false;
+    if (s.damping > kMaxDamping) return t;
+  }
+}
+
+// The trust region's update, the estimate's, and the convergence tests.
+void GaussNewtonProblem::AcceptStep(SolveState& s, int iter, const TrialStep& t, double x_norm) {
+  s.jacobians_current = t.accepted;  // else the workspace holds the refused candidate's
+  if (t.accepted) {
+    // Ceres's rule: a step that did what the model said widens the trust
+    // region (up to 3 times), a poor one narrows it.
+    s.damping = std::max(kMinDamping,
+                         s.damping * std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * t.rho - 1.0, 3)));
+    s.decrease_factor = 2;
+  }
+  if (t.at_rounding) {
+    s.Record(iter, t.step_norm, false, t.solve_s);
+    s.FinishAtRounding();
+    return;
+  }
+  if (!t.accepted) {
+    s.Record(iter, t.step_norm, false, t.solve_s);
+    s.Finish("convergence",
+             "no step lowers chi-squared, damped or not: the estimate is a minimum "
+             "to the solver's precision",
+             true);
+    return;
+  }
+  const double decrease = (s.chi2 - t.new_chi2) / std::max(s.chi2, std::numeric_limits<double>::min());
+  s.chi2 = t.new_chi2;
+  s.last_decrease = decrease;
+  s.have_factor = true;
+  s.Record(iter, t.step_norm, true, t.solve_s);
+  if (decrease < s.options.function_tolerance)
+    s.FinishFunctionTolerance(decrease);
+  else if (t.step_norm <= s.options.parameter_tolerance * (x_norm + s.options.parameter_tolerance))
+    s.Finish("convergence", "parameter tolerance reached", true);
 }
 
 }  // namespace cairn

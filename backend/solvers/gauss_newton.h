@@ -103,6 +103,32 @@ class GaussNewtonProblem {
   struct Block;
   struct Residual;
   struct Workspace;
+  struct PreviousAnalysis;
+  struct SolveState;
+  struct TrialStep;
+
+  // Prepare's stages, in order: number the variables, lay out the residuals'
+  // and Jacobians' storage, plan who feeds each part of b and each block of
+  // H, lay out H's scalar pattern, then the symbolic analysis.
+  void NumberVariables();
+  void AllocateJacobians();
+  template <typename F>
+  void ForEachSlot(F&& f) const;
+  void PlanGradient();
+  std::vector<int> PlanNormalMatrix();
+  void PlanPattern(const std::vector<int>& col_blocks, std::vector<int>* col_ptr,
+                   std::vector<int>* rows);
+  void AnalyzePattern(PreviousAnalysis* previous, const std::vector<int>& col_ptr,
+                      const std::vector<int>& rows);
+  std::vector<int> HintedOrdering() const;
+
+  // Solve's iteration: a chord step with the last factorisation when chi2
+  // has almost stopped falling, else a full step, linearised afresh and
+  // damped until it is accepted or the solve ends.
+  bool ChordStep(SolveState& s, int iteration);
+  void FullStep(SolveState& s, int iteration);
+  TrialStep DampedStep(SolveState& s);
+  void AcceptStep(SolveState& s, int iteration, const TrialStep& t, double x_norm);
 
   double Evaluate(bool jacobians);
   // Jacobians and gradient b at the current estimate; returns chi2.

@@ -1,0 +1,262 @@
+// The sparse Cholesky factorisations under the Gauss-Newton path: a grown
+// matrix keeps its ordering, two halves at once solve exactly and refuse an
+// indefinite matrix, and the serial linear-algebra scope.
+#include <dlfcn.h>
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cstdlib>
+#include <utility>
+#include <vector>
+
+#include "cairn/linear/domain_cholesky.h"
+#include "cairn/linear/serial_scope.h"
+#include "cairn/linear/sparse_cholesky.h"
+
+namespace cairn {
+namespace {
+
+// The upper triangle (compressed columns) of a random sparse SPD matrix of
+// 3x3 blocks: a chain of blocks plus a few random couplings, with every
+// coupling between blocks i < j listed in block column j.
+struct BlockMatrix {
+  int blocks = 0;
+  std::vector<std::pair<int, int>> couplings;  // (i, j), i < j
+  Eigen::MatrixXd Dense(unsigned seed) const {
+    const int n = 3 * blocks;
+    std::srand(seed);
+    Eigen::MatrixXd a = Eigen::MatrixXd::Zero(n, n);
+    for (const auto& [i, j] : couplings) {
+      const Eigen::Matrix3d c = Eigen::Matrix3d::Random();
+      a.block<3, 3>(3 * i, 3 * j) = c;
+      a.block<3, 3>(3 * j, 3 * i) = c.transpose();
+    }
+    // Diagonally dominant, hence positive definite.
+    for (int k = 0; k < n; ++k) a(k, k) = a.row(k).cwiseAbs().sum() + 1.0;
+    return a;
+  }
+  // The pattern: full blocks, upper triangle only, rows sorted.
+  void Pattern(std::vector<int>* col_ptr, std::vector<int>* rows) const {
+    const int n = 3 * blocks;
+    std::vector<std::vector<int>> above(blocks);  // block rows above the diagonal
+    for (const auto& [i, j] : couplings) above[j].push_back(i);
+    col_ptr->assign(1, 0);
+    rows->clear();
+    for (int b = 0; b < blocks; ++b) {
+      std::sort(above[b].begin(), above[b].end());
+      for (int c = 0; c < 3; ++c) {
+        for (int i : above[b])
+          for (int r = 0; r < 3; ++r) rows->push_back(3 * i + r);
+        for (int r = 0; r <= c; ++r) rows->push_back(3 * b + r);
+        col_ptr->push_back(static_cast<int>(rows->size()));
+      }
+    }
+    (void)n;
+  }
+};
+
+Eigen::VectorXd SolveWith(SparseCholesky& chol, const Eigen::MatrixXd& a,
+                          const std::vector<int>& col_ptr, const std::vector<int>& rows,
+                          const Eigen::VectorXd& b) {
+  double* v = chol.values();
+  for (int j = 0; j + 1 < static_cast<int>(col_ptr.size()); ++j)
+    for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) v[k] = a(rows[k], j);
+  EXPECT_TRUE(chol.Factorize());
+  Eigen::VectorXd x(b.size());
+  chol.Solve(b.data(), x.data());
+  return x;
+}
+
+TEST(SparseCholesky, ExtendKeepsTheOrderAndSolvesTheGrownMatrix) {
+  for (CholeskyKind kind : {CholeskyKind::kSupernodal, CholeskyKind::kSimplicial,
+                            CholeskyKind::kSupernodalOrSimplicial}) {
+    BlockMatrix m;
+    m.blocks = 40;
+    for (int i = 0; i + 1 < m.blocks; ++i) m.couplings.push_back({i, i + 1});
+    for (int k = 0; k < 12; ++k) {
+      const int i = (7 * k) % 30, j = i + 5 + k % 4;
+      m.couplings.push_back({i, j});
+    }
+    std::vector<int> col_ptr, rows;
+    m.Pattern(&col_ptr, &rows);
+    auto chol = SparseCholesky::Create(kind);
+    chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
+    Eigen::MatrixXd a = m.Dense(1);
+    Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(a.rows(), -1, 2);
+    EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - a.ldlt().solve(b)).norm(), 1e-10);
+    const std::vector<int> order = chol->BlockOrdering();
+
+    // Two new blocks, coupled to old ones and to each other: columns at the end.
+    BlockMatrix grown = m;
+    grown.blocks += 2;
+    grown.couplings.push_back({m.blocks - 1, m.blocks});
+    grown.couplings.push_back({3, m.blocks});
+    grown.couplings.push_back({m.blocks, m.blocks + 1});
+    grown.couplings.push_back({17, m.blocks + 1});
+    std::vector<int> grown_ptr, grown_rows;
+    grown.Pattern(&grown_ptr, &grown_rows);
+    ASSERT_TRUE(chol->Extend(3 * grown.blocks, grown_ptr, grown_rows,
+                             std::vector<int>(grown.blocks, 3)));
+    std::vector<int> extended = chol->BlockOrdering();
+    if (!order.empty()) {
+      ASSERT_EQ(extended.size(), order.size() + 2);
+      EXPECT_TRUE(std::equal(order.begin(), order.end(), extended.begin()));
+      EXPECT_EQ(extended[order.size()], m.blocks);
+      EXPECT_EQ(extended[order.size() + 1], m.blocks + 1);
+    }
+    a = grown.Dense(2);
+    b = Eigen::VectorXd::LinSpaced(a.rows(), 3, -1);
+    EXPECT_LT((SolveWith(*chol, a, grown_ptr, grown_rows, b) - a.ldlt().solve(b)).norm(), 1e-10)
+        << ToString(kind);
+
+    // A coupling between two old blocks changes an old column: refused,
+    // and the factorisation is left as it was.
+    BlockMatrix changed = grown;
+    changed.couplings.push_back({2, 20});
+    std::vector<int> changed_ptr, changed_rows;
+    changed.Pattern(&changed_ptr, &changed_rows);
+    EXPECT_FALSE(chol->Extend(3 * changed.blocks, changed_ptr, changed_rows,
+                              std::vector<int>(changed.blocks, 3)));
+    EXPECT_LT((SolveWith(*chol, a, grown_ptr, grown_rows, b) - a.ldlt().solve(b)).norm(), 1e-10);
+  }
+}
+
+// A grid of blocks (a city's streets) with a few long couplings: large
+// enough to be cut into two halves, which CHOLMOD's single factorisation
+// never sees.
+BlockMatrix Grid(int side) {
+  BlockMatrix m;
+  m.blocks = side * side;
+  for (int r = 0; r < side; ++r)
+    for (int c = 0; c < side; ++c) {
+      const int b = r * side + c;
+      if (c + 1 < side) m.couplings.push_back({b, b + 1});
+      if (r + 1 < side) m.couplings.push_back({b, b + side});
+    }
+  const int half = m.blocks / 2;
+  for (int k = 0; k < 10; ++k) {
+    const int i = (7 * k) % half, j = m.blocks - 1 - (11 * k) % half;
+    if (j - i != 1 && j - i != side) m.couplings.push_back({i, j});
+  }
+  return m;
+}
+
+// A grid with its diagonals and couplings two apart: fill enough for the
+// supernodal method in both halves.
+BlockMatrix DenseGrid(int side) {
+  BlockMatrix m = Grid(side);
+  for (int r = 0; r < side; ++r)
+    for (int c = 0; c < side; ++c) {
+      const int b = r * side + c;
+      if (c + 1 < side && r + 1 < side) m.couplings.push_back({b, b + side + 1});
+      if (c + 2 < side) m.couplings.push_back({b, b + 2});
+      if (r + 2 < side) m.couplings.push_back({b, b + 2 * side});
+    }
+  return m;
+}
+
+class TwoHalves : public ::testing::TestWithParam<bool> {};
+
+TEST_P(TwoHalves, SolveExactly) {
+  const bool dense = GetParam();
+  const BlockMatrix m = dense ? DenseGrid(24) : Grid(24);
+  std::vector<int> col_ptr, rows;
+  m.Pattern(&col_ptr, &rows);
+  const std::vector<int> sizes(m.blocks, 3);
+  auto chol = CreateDomainCholesky(/*min_work=*/0);
+  chol->Analyze(3 * m.blocks, col_ptr, rows, sizes);
+  ASSERT_NE(chol->Method().find("two halves"), std::string::npos) << chol->Method();
+  // CHOLMOD's choice for the halves: the sparse grid's simplicial, the
+  // denser one's supernodal; both ways of reading the separator's block.
+  EXPECT_NE(chol->Method().find(dense ? "(supernodal, supernodal)" : "(simplicial, simplicial)"),
+            std::string::npos) << chol->Method();
+  const Eigen::MatrixXd a = m.Dense(5);
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(a.rows(), -2, 1);
+  const Eigen::VectorXd expected = a.ldlt().solve(b);
+  EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - expected).norm(), 1e-10 * expected.norm());
+  // Its factor has the fill of one factorisation in the same order (the
+  // separator's block counted dense).
+  auto whole = SparseCholesky::Create(dense ? CholeskyKind::kSupernodal
+                                            : CholeskyKind::kSimplicial);
+  whole->SetBlockOrdering(chol->BlockOrdering());
+  whole->Analyze(3 * m.blocks, col_ptr, rows, sizes);
+  SolveWith(*whole, a, col_ptr, rows, b);
+  EXPECT_NEAR(static_cast<double>(chol->FactorNonZeros()) / whole->FactorNonZeros(), 1.0, 0.1);
+
+  // Refactorised with other values, then with a given order (a graph that
+  // grew): cut in that order's elimination tree.
+  const Eigen::MatrixXd a2 = m.Dense(6);
+  EXPECT_LT((SolveWith(*chol, a2, col_ptr, rows, b) - a2.ldlt().solve(b)).norm(), 1e-9);
+  auto given = CreateDomainCholesky(0);
+  given->SetBlockOrdering(chol->BlockOrdering());
+  given->Analyze(3 * m.blocks, col_ptr, rows, sizes);
+  EXPECT_NE(given->Method().find("two halves"), std::string::npos) << given->Method();
+  EXPECT_LT((SolveWith(*given, a, col_ptr, rows, b) - expected).norm(), 1e-10 * expected.norm());
+}
+
+TEST_P(TwoHalves, RefuseAMatrixThatIsNotPositiveDefinite) {
+  const BlockMatrix m = GetParam() ? DenseGrid(20) : Grid(20);
+  std::vector<int> col_ptr, rows;
+  m.Pattern(&col_ptr, &rows);
+  auto chol = CreateDomainCholesky(0);
+  chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
+  ASSERT_NE(chol->Method().find("two halves"), std::string::npos);
+  // Indefinite in each block in turn: in either half or in the separator.
+  const Eigen::MatrixXd positive = m.Dense(7);
+  double* v = chol->values();
+  for (int j = 0; j + 1 < static_cast<int>(col_ptr.size()); ++j)
+    for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) v[k] = positive(rows[k], j);
+  for (int block = 0; block < m.blocks; ++block) {
+    const int diagonal = col_ptr[3 * block + 1] - 1;  // rows sorted: the last of its column
+    const double kept = v[diagonal];
+    v[diagonal] = -1;
+    EXPECT_FALSE(chol->Factorize()) << "block " << block;
+    v[diagonal] = kept;
+  }
+  // And positive definite again afterwards.
+  const Eigen::MatrixXd a = m.Dense(8);
+  const Eigen::VectorXd b = Eigen::VectorXd::Ones(a.rows());
+  EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - a.ldlt().solve(b)).norm(), 1e-9);
+}
+
+INSTANTIATE_TEST_SUITE_P(SparseCholesky, TwoHalves, ::testing::Bool(),
+                         [](const auto& info) { return info.param ? "Supernodal" : "Simplicial"; });
+
+TEST(SparseCholesky, TwoHalvesLeaveASmallGraphToOneFactorisation) {
+  BlockMatrix m = Grid(6);
+  std::vector<int> col_ptr, rows;
+  m.Pattern(&col_ptr, &rows);
+  auto chol = SparseCholesky::Create(CholeskyKind::kTwoHalves);
+  chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
+  EXPECT_EQ(chol->Method().find("two halves"), std::string::npos) << chol->Method();
+  const Eigen::MatrixXd a = m.Dense(9);
+  const Eigen::VectorXd b = Eigen::VectorXd::Ones(a.rows());
+  EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - a.ldlt().solve(b)).norm(), 1e-10);
+}
+
+
+TEST(SerialLinearAlgebraScope, TurnsLibraryThreadsOffAndRestoresThem) {
+  auto get_levels = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "omp_get_max_active_levels"));
+  auto get_blas = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
+  auto set_blas = reinterpret_cast<void (*)(int)>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+  if (!get_levels && !get_blas) GTEST_SKIP() << "neither OpenMP nor OpenBLAS is loaded";
+  if (set_blas) set_blas(2);
+  const int levels = get_levels ? get_levels() : 0;
+  {
+    SerialLinearAlgebraScope outer;
+    if (get_levels) EXPECT_EQ(get_levels(), 0);
+    if (get_blas) EXPECT_EQ(get_blas(), 1);
+    {
+      SerialLinearAlgebraScope inner;  // nests
+      if (get_blas) EXPECT_EQ(get_blas(), 1);
+    }
+    if (get_levels) EXPECT_EQ(get_levels(), 0);
+    if (get_blas) EXPECT_EQ(get_blas(), 1);
+  }
+  if (get_levels) EXPECT_EQ(get_levels(), levels);
+  if (get_blas) EXPECT_EQ(get_blas(), 2);
+}
+
+}  // namespace
+}  // namespace cairn

@@ -1,12 +1,15 @@
 // The factors against numeric differentiation and against g2o's error
-// definitions, and the whitening against the information matrix.
+// definitions, and the whitening against the information matrix: one typed
+// suite over SE(2) and SE(3) (tests/factors/pose_groups.h), then the factors
+// inside a whole problem against graph/chi2.
 #include <ceres/cost_function.h>
 #include <ceres/gradient_checker.h>
 #include <ceres/problem.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <random>
+#include <memory>
+#include <utility>
 #include <vector>
 
 #include "cairn/solvers/ceres_solver.h"
@@ -16,59 +19,16 @@
 #include "cairn/factors/pose_manifold.h"
 #include "cairn/factors/se2_factors.h"
 #include "cairn/factors/se3_factors.h"
-#include "test_util.h"
+#include "pose_groups.h"
 
 namespace cairn {
 namespace {
 
-using factors::Matrix6d;
+using testing::Random;
 
 // Ceres's checker divides by the larger entry, so it is relative; 1e-6 is
 // well above central differences' error and well below any wrong term.
 constexpr double kPrecision = 1e-6;
-
-class Random {
- public:
-  explicit Random(unsigned seed) : gen_(seed) {}
-  double Uniform(double lo, double hi) { return std::uniform_real_distribution<>(lo, hi)(gen_); }
-  double Normal(double sigma) { return std::normal_distribution<>(0, sigma)(gen_); }
-
-  SE2 Pose2(double theta) { return SE2(Uniform(-10, 10), Uniform(-10, 10), theta); }
-  SE2 Pose2() { return Pose2(Uniform(-M_PI, M_PI)); }
-  SE3 Pose3(const Eigen::Quaterniond& q) {
-    return SE3(q, Eigen::Vector3d(Uniform(-10, 10), Uniform(-10, 10), Uniform(-10, 10)));
-  }
-  SE3 Pose3() { return Pose3(Quaternion()); }
-  Eigen::Quaterniond Quaternion() {
-    Eigen::Quaterniond q(Normal(1), Normal(1), Normal(1), Normal(1));
-    return q.normalized();
-  }
-  // A rotation by pi - eps about a random axis: w close to zero, so the
-  // quaternion's sign is about to flip.
-  Eigen::Quaterniond NearHalfTurn(double eps) {
-    const Eigen::Vector3d axis =
-        Eigen::Vector3d(Normal(1), Normal(1), Normal(1)).normalized();
-    return Eigen::Quaterniond(Eigen::AngleAxisd(M_PI - eps, axis));
-  }
-  // Symmetric positive definite with off-diagonal terms of the same order
-  // as the diagonal, so that the lower and upper Cholesky factors differ.
-  template <int N>
-  Eigen::Matrix<double, N, N> Information() {
-    Eigen::Matrix<double, N, N> b;
-    for (int i = 0; i < N; ++i)
-      for (int j = 0; j < N; ++j) b(i, j) = Normal(1);
-    return b * b.transpose() + 0.5 * Eigen::Matrix<double, N, N>::Identity();
-  }
-  SE2 Noise2(double s) { return SE2(Normal(s), Normal(s), Normal(s)); }
-  SE3 Noise3(double s) {
-    Vector6d d;
-    for (int i = 0; i < 6; ++i) d[i] = Normal(s);
-    return SE3().BoxPlus(d);
-  }
-
- private:
-  std::mt19937 gen_;
-};
 
 // Probes a cost function with the pose manifold on every block; returns the
 // checker's error log on failure so that the test prints it.
@@ -88,203 +48,124 @@ Eigen::VectorXd Residual(const ceres::CostFunction& cost, std::vector<const doub
   return r;
 }
 
-// ---------------------------------------------------------------- SE(2)
+// ------------------------------------------- one suite for SE(2) and SE(3)
 
-// g2o's EDGE_SE2 error, written with the geometry classes instead of the
-// functor's expanded trigonometry.
-Eigen::Vector3d G2oError2(const SE2& xi, const SE2& xj, const SE2& z) {
-  const SE2 e = z.Inverse() * (xi.Inverse() * xj);
-  return e.ToVector();
-}
+template <typename G>
+class PoseFactors : public ::testing::Test {
+ protected:
+  using Pose = typename G::Pose;
+  using Ambient = typename G::Ambient;
+  using Cost = std::unique_ptr<ceres::CostFunction>;
 
-TEST(SE2Factors, BetweenJacobianAtRandomPoses) {
-  Random rng(1);
-  const auto manifold = factors::MakeSE2Manifold();
-  for (int k = 0; k < 50; ++k) {
-    const SE2 xi = rng.Pose2(), xj = rng.Pose2();
-    const SE2 z = xi.Between(xj) * rng.Noise2(0.3);
-    std::unique_ptr<ceres::CostFunction> cost(
-        factors::SE2BetweenFactor::Create(z.ToVector(), rng.Information<3>()));
-    const Eigen::Vector3d vi = xi.ToVector(), vj = xj.ToVector();
-    EXPECT_TRUE(Probe(*cost, *manifold, {vi.data(), vj.data()})) << "pose pair " << k;
+  // Pairs of sampled poses, the second of each pair chosen so that a pair
+  // near a half turn is met with either sign (across +-pi in SE(2)).
+  std::vector<std::pair<Pose, Pose>> Pairs() const {
+    std::vector<std::pair<Pose, Pose>> pairs;
+    for (size_t k = 0; k < poses_.size(); ++k)
+      pairs.emplace_back(poses_[k], poses_[(k + 1) % poses_.size()]);
+    return pairs;
+  }
+  // Every other call the other parameters of the same pose (the heading a
+  // turn away, the quaternion negated): no factor may notice.
+  Ambient Params(const Pose& x) {
+    const Ambient v = G::ToAmbient(x);
+    return (alias_ = !alias_) ? G::Alias(v) : v;
+  }
+  // The error with the information left out: g2o's e, unwhitened.
+  typename G::Tangent BetweenError(const Pose& z, const Ambient& vi, const Ambient& vj) const {
+    const Cost cost(G::Between(z, G::Information::Identity()));
+    return Residual(*cost, {vi.data(), vj.data()});
+  }
+  typename G::Tangent PriorError(const Pose& z, const Ambient& v) const {
+    const Cost cost(G::Prior(z, G::Information::Identity()));
+    return Residual(*cost, {v.data()});
+  }
+
+  Random rng_{41};
+  const std::unique_ptr<ceres::Manifold> manifold_ = G::Manifold();
+  const std::vector<Pose> poses_ = testing::SamplePoses<G>(rng_);
+  bool alias_ = false;
+};
+
+TYPED_TEST_SUITE(PoseFactors, testing::PoseGroups, testing::PoseGroupNames);
+
+TYPED_TEST(PoseFactors, BetweenJacobianMatchesNumericDifferentiation) {
+  for (const auto& [xi, xj] : this->Pairs()) {
+    const auto z = xi.Between(xj) * TypeParam::Noise(this->rng_, 0.3);
+    const typename TestFixture::Cost cost(
+        TypeParam::Between(z, this->rng_.template Information<TypeParam::kTangent>()));
+    const auto vi = this->Params(xi), vj = this->Params(xj);
+    EXPECT_TRUE(Probe(*cost, *this->manifold_, {vi.data(), vj.data()}))
+        << vi.transpose() << "\n" << vj.transpose();
   }
 }
 
-TEST(SE2Factors, BetweenJacobianAcrossPlusMinusPi) {
-  Random rng(2);
-  const auto manifold = factors::MakeSE2Manifold();
-  const double eps[] = {1e-9, 1e-4, 1e-2};
-  for (double e : eps) {
-    // One pose just below +pi, the other just above -pi: the raw difference
-    // of angles is near -2 pi and only the wrap makes it small.
-    for (int sign : {1, -1}) {
-      const SE2 xi = rng.Pose2(sign * (M_PI - e)), xj = rng.Pose2(-sign * (M_PI - e));
-      const SE2 z = xi.Between(xj) * rng.Noise2(0.05);
-      std::unique_ptr<ceres::CostFunction> cost(
-          factors::SE2BetweenFactor::Create(z.ToVector(), rng.Information<3>()));
-      const Eigen::Vector3d vi(xi.x(), xi.y(), sign * (M_PI - e));
-      const Eigen::Vector3d vj(xj.x(), xj.y(), -sign * (M_PI - e));
-      EXPECT_TRUE(Probe(*cost, *manifold, {vi.data(), vj.data()})) << "eps " << e;
-      // The residual is g2o's, wrapped, not a difference near 2 pi.
-      const Eigen::Vector3d r = Residual(*cost, {vi.data(), vj.data()});
-      EXPECT_LT(r.norm(), 10.0);
-    }
+TYPED_TEST(PoseFactors, PriorJacobianMatchesNumericDifferentiation) {
+  for (const auto& x : this->poses_) {
+    const auto z = x * TypeParam::Noise(this->rng_, 0.3);
+    const typename TestFixture::Cost cost(
+        TypeParam::Prior(z, this->rng_.template Information<TypeParam::kTangent>()));
+    const auto v = this->Params(x);
+    EXPECT_TRUE(Probe(*cost, *this->manifold_, {v.data()})) << v.transpose();
   }
 }
 
-TEST(SE2Factors, PriorJacobianAtRandomPosesAndNearPi) {
-  Random rng(3);
-  const auto manifold = factors::MakeSE2Manifold();
-  for (int k = 0; k < 40; ++k) {
-    const double theta = k < 20 ? rng.Uniform(-M_PI, M_PI) : (k % 2 ? 1 : -1) * (M_PI - 1e-7);
-    const SE2 x = rng.Pose2(theta);
-    const SE2 z = x * rng.Noise2(0.3);
-    std::unique_ptr<ceres::CostFunction> cost(
-        factors::SE2PriorFactor::Create(z.ToVector(), rng.Information<3>()));
-    const Eigen::Vector3d v(x.x(), x.y(), theta);
-    EXPECT_TRUE(Probe(*cost, *manifold, {v.data()})) << "pose " << k;
-  }
-}
-
-TEST(SE2Factors, ErrorIsG2osAndZeroWhenExact) {
-  Random rng(4);
-  for (int k = 0; k < 50; ++k) {
-    const SE2 xi = rng.Pose2(), xj = rng.Pose2();
-    const Eigen::Vector3d vi = xi.ToVector(), vj = xj.ToVector();
-    const SE2 exact = xi.Between(xj);
-    const Eigen::Matrix3d info = rng.Information<3>();
-    std::unique_ptr<ceres::CostFunction> cost(
-        factors::SE2BetweenFactor::Create(exact.ToVector(), info));
-    EXPECT_LT(Residual(*cost, {vi.data(), vj.data()}).norm(), 1e-9);
-    std::unique_ptr<ceres::CostFunction> prior(factors::SE2PriorFactor::Create(vi, info));
-    EXPECT_LT(Residual(*prior, {vi.data()}).norm(), 1e-12);
-
-    const SE2 z = exact * rng.Noise2(0.5);
-    Eigen::Vector3d e;
-    factors::SE2BetweenFactor(z.ToVector(), Eigen::Matrix3d::Identity())(vi.data(), vj.data(),
-                                                                         e.data());
-    const Eigen::Vector3d expected = G2oError2(xi, xj, z);
+// g2o's error, from the geometry classes instead of the functors' own
+// arithmetic: e of Z^-1 (X_i^-1 X_j), wrapped, and zero when Z is exact.
+TYPED_TEST(PoseFactors, BetweenErrorIsG2os) {
+  for (const auto& [xi, xj] : this->Pairs()) {
+    const auto vi = this->Params(xi), vj = this->Params(xj);
+    EXPECT_LT(this->BetweenError(xi.Between(xj), vi, vj).norm(), 1e-9);
+    const auto z = xi.Between(xj) * TypeParam::Noise(this->rng_, 0.5);
+    const auto expected = TypeParam::G2oError(z.Inverse() * xi.Between(xj));
+    const auto e = this->BetweenError(z, vi, vj);
     EXPECT_LT((e - expected).norm(), 1e-9) << e.transpose() << " vs " << expected.transpose();
   }
 }
 
-TEST(SE2Factors, SquaredResidualIsChi2WithNonDiagonalInformation) {
-  Random rng(5);
-  for (int k = 0; k < 20; ++k) {
-    const SE2 xi = rng.Pose2(), xj = rng.Pose2();
-    const SE2 z = xi.Between(xj) * rng.Noise2(0.5);
-    const Eigen::Matrix3d info = rng.Information<3>();
-    const Eigen::Vector3d vi = xi.ToVector(), vj = xj.ToVector();
-    const Eigen::Vector3d e = G2oError2(xi, xj, z);
-    std::unique_ptr<ceres::CostFunction> cost(
-        factors::SE2BetweenFactor::Create(z.ToVector(), info));
-    const double chi2 = e.dot(info * e);
-    EXPECT_NEAR(Residual(*cost, {vi.data(), vj.data()}).squaredNorm(), chi2, 1e-9 * chi2);
-    // The lower factor would be wrong here: the test can tell them apart.
-    const Eigen::Matrix3d lower = info.llt().matrixL();
-    EXPECT_GT(std::abs((lower * e).squaredNorm() - chi2), 1e-6 * chi2);
+TYPED_TEST(PoseFactors, PriorErrorIsG2os) {
+  for (const auto& x : this->poses_) {
+    const auto v = this->Params(x);
+    EXPECT_LT(this->PriorError(x, v).norm(), 1e-10);
+    const auto z = x * TypeParam::Noise(this->rng_, 0.5);
+    const auto expected = TypeParam::G2oError(z.Inverse() * x);
+    const auto e = this->PriorError(z, v);
+    EXPECT_LT((e - expected).norm(), 1e-9) << e.transpose() << " vs " << expected.transpose();
   }
 }
 
-// ---------------------------------------------------------------- SE(3)
-
-Vector6d G2oError3(const SE3& xi, const SE3& xj, const SE3& z) {
-  const SE3 e = z.Inverse() * (xi.Inverse() * xj);
-  Eigen::Quaterniond q = e.rotation();
-  if (q.w() < 0) q.coeffs() = -q.coeffs();
-  Vector6d out;
-  out << e.translation(), q.vec();
-  return out;
+// The residual is U e with Omega = U^T U, so |r|^2 = e^T Omega e, g2o's
+// chi-squared for the edge; the lower factor L (Omega = L L^T) has the same
+// |.|^2 only by accident, and the information here is far from diagonal.
+template <typename Info, typename Error>
+void ExpectWhitenedByUpperFactor(const Info& info, const Error& e, const Eigen::VectorXd& r) {
+  const Info upper = info.llt().matrixU();
+  const double chi2 = e.dot(info * e);
+  EXPECT_LT((r - upper * e).norm(), 1e-9 * (1 + r.norm()));
+  EXPECT_NEAR(r.squaredNorm(), chi2, 1e-9 * chi2);
+  const Info lower = info.llt().matrixL();
+  EXPECT_GT(std::abs((lower * e).squaredNorm() - chi2), 1e-6 * chi2);
 }
 
-std::unique_ptr<ceres::CostFunction> Between3(const SE3& z, const Matrix6d& info) {
-  return std::unique_ptr<ceres::CostFunction>(
-      factors::SE3BetweenFactor::Create(z.rotation(), z.translation(), info));
-}
-
-TEST(SE3Factors, BetweenJacobianAtRandomPoses) {
-  Random rng(11);
-  const auto manifold = factors::MakeSE3Manifold();
-  for (int k = 0; k < 50; ++k) {
-    const SE3 xi = rng.Pose3(), xj = rng.Pose3();
-    const SE3 z = xi.Between(xj) * rng.Noise3(0.3);
-    const auto cost = Between3(z, rng.Information<6>());
-    const Vector7d vi = xi.ToVector(), vj = xj.ToVector();
-    EXPECT_TRUE(Probe(*cost, *manifold, {vi.data(), vj.data()})) << "pose pair " << k;
+TYPED_TEST(PoseFactors, BetweenResidualSquaredIsG2osChi2) {
+  for (const auto& [xi, xj] : this->Pairs()) {
+    const auto z = xi.Between(xj) * TypeParam::Noise(this->rng_, 0.5);
+    const auto info = this->rng_.template Information<TypeParam::kTangent>();
+    const auto vi = this->Params(xi), vj = this->Params(xj);
+    const typename TestFixture::Cost cost(TypeParam::Between(z, info));
+    ExpectWhitenedByUpperFactor(info, TypeParam::G2oError(z.Inverse() * xi.Between(xj)),
+                                Residual(*cost, {vi.data(), vj.data()}));
   }
 }
 
-TEST(SE3Factors, BetweenJacobianNearHalfTurns) {
-  Random rng(12);
-  const auto manifold = factors::MakeSE3Manifold();
-  for (double eps : {1e-9, 1e-6, 1e-3}) {
-    for (int k = 0; k < 6; ++k) {
-      const SE3 xi = rng.Pose3(rng.NearHalfTurn(eps));
-      const SE3 xj = rng.Pose3(rng.NearHalfTurn(eps));
-      const SE3 z = xi.Between(xj) * rng.Noise3(0.05);
-      const auto cost = Between3(z, rng.Information<6>());
-      Vector7d vi = xi.ToVector(), vj = xj.ToVector();
-      // Store one quaternion with the other sign (w < 0 when it was >= 0):
-      // the same rotation, and the residual must not notice.
-      if (k % 2) vj.tail<4>() = -vj.tail<4>();
-      EXPECT_TRUE(Probe(*cost, *manifold, {vi.data(), vj.data()})) << "eps " << eps << " k " << k;
-      const Vector6d expected = G2oError3(xi, xj, z);
-      Vector6d e;
-      factors::SE3BetweenFactor(z.rotation(), z.translation(), Matrix6d::Identity())(
-          vi.data(), vj.data(), e.data());
-      EXPECT_LT((e - expected).norm(), 1e-9);
-    }
-  }
-}
-
-TEST(SE3Factors, PriorJacobianAtRandomPosesAndNearHalfTurns) {
-  Random rng(13);
-  const auto manifold = factors::MakeSE3Manifold();
-  for (int k = 0; k < 40; ++k) {
-    const SE3 x = rng.Pose3(k < 20 ? rng.Quaternion() : rng.NearHalfTurn(k % 3 ? 1e-8 : 1e-4));
-    const SE3 z = x * rng.Noise3(0.3);
-    std::unique_ptr<ceres::CostFunction> cost(
-        factors::SE3PriorFactor::Create(z.rotation(), z.translation(), rng.Information<6>()));
-    Vector7d v = x.ToVector();
-    if (k % 2) v.tail<4>() = -v.tail<4>();
-    EXPECT_TRUE(Probe(*cost, *manifold, {v.data()})) << "pose " << k;
-  }
-}
-
-TEST(SE3Factors, ErrorIsG2osAndZeroWhenExact) {
-  Random rng(14);
-  for (int k = 0; k < 50; ++k) {
-    const SE3 xi = rng.Pose3(k % 2 ? rng.NearHalfTurn(1e-7) : rng.Quaternion());
-    const SE3 xj = rng.Pose3();
-    const Vector7d vi = xi.ToVector(), vj = xj.ToVector();
-    const SE3 exact = xi.Between(xj);
-    const Matrix6d info = rng.Information<6>();
-    EXPECT_LT(Residual(*Between3(exact, info), {vi.data(), vj.data()}).norm(), 1e-8);
-    std::unique_ptr<ceres::CostFunction> prior(
-        factors::SE3PriorFactor::Create(xi.rotation(), xi.translation(), info));
-    EXPECT_LT(Residual(*prior, {vi.data()}).norm(), 1e-10);
-
-    const SE3 z = exact * rng.Noise3(0.5);
-    Vector6d e;
-    factors::SE3BetweenFactor(z.rotation(), z.translation(), Matrix6d::Identity())(
-        vi.data(), vj.data(), e.data());
-    EXPECT_LT((e - G2oError3(xi, xj, z)).norm(), 1e-9);
-  }
-}
-
-TEST(SE3Factors, SquaredResidualIsChi2WithNonDiagonalInformation) {
-  Random rng(15);
-  for (int k = 0; k < 20; ++k) {
-    const SE3 xi = rng.Pose3(), xj = rng.Pose3();
-    const SE3 z = xi.Between(xj) * rng.Noise3(0.5);
-    const Matrix6d info = rng.Information<6>();
-    const Vector7d vi = xi.ToVector(), vj = xj.ToVector();
-    const Vector6d e = G2oError3(xi, xj, z);
-    const double chi2 = e.dot(info * e);
-    EXPECT_NEAR(Residual(*Between3(z, info), {vi.data(), vj.data()}).squaredNorm(), chi2,
-                1e-9 * chi2);
-    const Matrix6d lower = info.llt().matrixL();
-    EXPECT_GT(std::abs((lower * e).squaredNorm() - chi2), 1e-6 * chi2);
+TYPED_TEST(PoseFactors, PriorResidualSquaredIsG2osChi2) {
+  for (const auto& x : this->poses_) {
+    const auto z = x * TypeParam::Noise(this->rng_, 0.5);
+    const auto info = this->rng_.template Information<TypeParam::kTangent>();
+    const auto v = this->Params(x);
+    const typename TestFixture::Cost cost(TypeParam::Prior(z, info));
+    ExpectWhitenedByUpperFactor(info, TypeParam::G2oError(z.Inverse() * x),
+                                Residual(*cost, {v.data()}));
   }
 }
 
@@ -324,17 +205,21 @@ void CheckCostIsHalfChi2(PoseGraph& graph, Random& rng, MakePose pose, MakeNoise
 }
 
 TEST(FactorsInProblem, TwiceCostIsChi2In2D) {
+  using testing::SE2Group;
   Random rng(21);
   PoseGraph graph(2);
   CheckCostIsHalfChi2(
-      graph, rng, [&] { return rng.Pose2(); }, [&] { return rng.Noise2(0.3); });
+      graph, rng, [&] { return SE2Group::RandomPose(rng); },
+      [&] { return SE2Group::Noise(rng, 0.3); });
 }
 
 TEST(FactorsInProblem, TwiceCostIsChi2In3D) {
+  using testing::SE3Group;
   Random rng(22);
   PoseGraph graph(3);
   CheckCostIsHalfChi2(
-      graph, rng, [&] { return rng.Pose3(); }, [&] { return rng.Noise3(0.3); });
+      graph, rng, [&] { return SE3Group::RandomPose(rng); },
+      [&] { return SE3Group::Noise(rng, 0.3); });
 }
 
 }  // namespace

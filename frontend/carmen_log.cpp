@@ -96,6 +96,74 @@ class LineReader {
   gzFile file_;
 };
 
+// FLASER n r1 .. rn x y theta odom_x odom_y odom_theta timestamp ...: the
+// ranges and the corrected pose; returns the timestamp's field.
+size_t ParseFlaser(LineParser& p, LaserScan* scan) {
+  const int n = p.Count(1, "number of readings", 100000);
+  if (n < 2) p.Fail("a scan needs at least 2 readings");
+  p.Need(2 + n + 9);
+  scan->ranges.resize(n);
+  for (int i = 0; i < n; ++i) scan->ranges[i] = static_cast<float>(p.Double(2 + i, "range"));
+  size_t k = 2 + n;
+  // 180/181 beams over 180 degrees, 360/361 over 180 degrees too.
+  const double fov = M_PI;
+  const bool closed = (n % 2) == 1;
+  scan->angle_increment = fov / (closed ? n - 1 : n);
+  scan->angle_min = -M_PI / 2;
+  scan->reference = SE2(p.Double(k, "x"), p.Double(k + 1, "y"), p.Double(k + 2, "theta"));
+  return k + 6;
+}
+
+// ROBOTLASER1 with its own angles, remissions, and the laser's pose beside
+// the robot's; returns the timestamp's field.
+size_t ParseRobotLaser(LineParser& p, LaserScan* scan) {
+  p.Need(10);
+  const double start = p.Double(2, "start angle");
+  p.Double(3, "field of view");
+  const double res = p.Double(4, "angular resolution");
+  p.Double(5, "maximum range");
+  const int n = p.Count(8, "number of readings", 100000);
+  if (n < 2) p.Fail("a scan needs at least 2 readings");
+  p.Need(9 + n + 1);
+  scan->ranges.resize(n);
+  for (int i = 0; i < n; ++i) scan->ranges[i] = static_cast<float>(p.Double(9 + i, "range"));
+  size_t k = 9 + n;
+  const int nr = p.Count(k, "number of remissions", 100000);
+  k += 1 + nr;
+  p.Need(k + 14);
+  const SE2 laser(p.Double(k, "x"), p.Double(k + 1, "y"), p.Double(k + 2, "theta"));
+  scan->reference = SE2(p.Double(k + 3, "x"), p.Double(k + 4, "y"), p.Double(k + 5, "theta"));
+  scan->laser_offset = scan->reference.Between(laser);
+  scan->angle_min = start;
+  scan->angle_increment = res;
+  return k + 11;
+}
+
+// The ODOM chain restarts at each scan's pose; the last ODOM before a scan
+// gives the raw motion since the previous one.
+class OdometryChain {
+ public:
+  void Odom(const SE2& pose) {
+    last_odom_ = pose;
+    have_odom_ = true;
+    odom_since_scan_ = true;
+  }
+  void Scan(LaserScan* scan) {
+    if (have_prev_scan_ && have_odom_) scan->odometry_increment = prev_scan_pose_.Between(last_odom_);
+    scan->odometry_measured = have_prev_scan_ && odom_since_scan_;
+    odom_since_scan_ = false;
+    prev_scan_pose_ = scan->reference;
+    // Until an ODOM line follows, the robot has not moved since this scan.
+    last_odom_ = scan->reference;
+    have_prev_scan_ = true;
+    have_odom_ = true;
+  }
+
+ private:
+  bool have_prev_scan_ = false, have_odom_ = false, odom_since_scan_ = false;
+  SE2 prev_scan_pose_, last_odom_;
+};
+
 }  // namespace
 
 CarmenLog ReadCarmenLog(const std::string& path) {
@@ -104,10 +172,7 @@ CarmenLog ReadCarmenLog(const std::string& path) {
   LineReader reader(path);
   std::string text;
   size_t line_no = 0;
-  // The ODOM chain restarts at each scan's pose; the last ODOM before a scan
-  // gives the raw motion since the previous one.
-  bool have_prev_scan = false, have_odom = false, odom_since_scan = false;
-  SE2 prev_scan_pose, last_odom;
+  OdometryChain odometry;
   while (reader.Next(&text)) {
     ++line_no;
     const size_t first = text.find_first_not_of(" \t");
@@ -122,51 +187,14 @@ CarmenLog ReadCarmenLog(const std::string& path) {
     }
     if (tag == "ODOM") {
       p.Need(10);
-      last_odom = SE2(p.Double(1, "x"), p.Double(2, "y"), p.Double(3, "theta"));
+      const SE2 pose(p.Double(1, "x"), p.Double(2, "y"), p.Double(3, "theta"));
       p.Double(7, "timestamp");
-      have_odom = true;
-      odom_since_scan = true;
+      odometry.Odom(pose);
       continue;
     }
     LaserScan scan;
     scan.line = line_no;
-    size_t k = 1;
-    if (tag == "FLASER") {
-      const int n = p.Count(1, "number of readings", 100000);
-      if (n < 2) p.Fail("a scan needs at least 2 readings");
-      p.Need(2 + n + 9);
-      scan.ranges.resize(n);
-      for (int i = 0; i < n; ++i) scan.ranges[i] = static_cast<float>(p.Double(2 + i, "range"));
-      k = 2 + n;
-      // 180/181 beams over 180 degrees, 360/361 over 180 degrees too.
-      const double fov = M_PI;
-      const bool closed = (n % 2) == 1;
-      scan.angle_increment = fov / (closed ? n - 1 : n);
-      scan.angle_min = -M_PI / 2;
-      scan.reference = SE2(p.Double(k, "x"), p.Double(k + 1, "y"), p.Double(k + 2, "theta"));
-      k += 6;
-    } else {  // ROBOTLASER1
-      p.Need(10);
-      const double start = p.Double(2, "start angle");
-      p.Double(3, "field of view");
-      const double res = p.Double(4, "angular resolution");
-      p.Double(5, "maximum range");
-      const int n = p.Count(8, "number of readings", 100000);
-      if (n < 2) p.Fail("a scan needs at least 2 readings");
-      p.Need(9 + n + 1);
-      scan.ranges.resize(n);
-      for (int i = 0; i < n; ++i) scan.ranges[i] = static_cast<float>(p.Double(9 + i, "range"));
-      k = 9 + n;
-      const int nr = p.Count(k, "number of remissions", 100000);
-      k += 1 + nr;
-      p.Need(k + 14);
-      const SE2 laser(p.Double(k, "x"), p.Double(k + 1, "y"), p.Double(k + 2, "theta"));
-      scan.reference = SE2(p.Double(k + 3, "x"), p.Double(k + 4, "y"), p.Double(k + 5, "theta"));
-      scan.laser_offset = scan.reference.Between(laser);
-      scan.angle_min = start;
-      scan.angle_increment = res;
-      k += 11;
-    }
+    const size_t k = tag == "FLASER" ? ParseFlaser(p, &scan) : ParseRobotLaser(p, &scan);
     p.Need(k + 1);
     scan.timestamp = p.Double(k, "timestamp");
     scan.timestamp_text = p.Text(k);
@@ -174,14 +202,7 @@ CarmenLog ReadCarmenLog(const std::string& path) {
       if (r < 0) p.Fail("negative range");
       log.max_reading = std::max(log.max_reading, static_cast<double>(r));
     }
-    if (have_prev_scan && have_odom) scan.odometry_increment = prev_scan_pose.Between(last_odom);
-    scan.odometry_measured = have_prev_scan && odom_since_scan;
-    odom_since_scan = false;
-    prev_scan_pose = scan.reference;
-    // Until an ODOM line follows, the robot has not moved since this scan.
-    last_odom = scan.reference;
-    have_prev_scan = true;
-    have_odom = true;
+    odometry.Scan(&scan);
     log.scans.push_back(std::move(scan));
   }
   return log;

@@ -71,118 +71,131 @@ bool VerifyLoopClosure(const PointCloud& submap, const PointCloud& query, const 
   return true;
 }
 
-MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostream* progress) {
-  MapResult res;
-  res.max_range = o.max_range > 0 ? o.max_range : log.max_reading;
-  const double match_max = std::min(o.max_match_range, res.max_range - 1e-3);
-  const size_t n = log.scans.size();
-  res.scan_poses.resize(n);
-  res.dead_reckoning.resize(n);
-  std::vector<size_t> scan_kf(n);
-  std::vector<SE2> scan_rel(n);
-  PoseGraph& graph = res.graph;
-  auto kf_pose = [&](size_t k) { return ToSE2(graph.vertex(static_cast<int64_t>(k)).x); };
+namespace {
 
-  std::unique_ptr<MapPair> local;
-  auto rebuild_local = [&]() {
-    PointCloud world;
-    const size_t K = res.keyframes.size();
-    const size_t first = K > static_cast<size_t>(o.local_map_keyframes) ? K - o.local_map_keyframes : 0;
-    for (size_t k = first; k < K; ++k) world.Append(res.keyframes[k].cloud, kf_pose(k));
-    const auto t0 = Clock::now();
-    // Overlapping keyframes repeat points; one per 2.5 cm is plenty.
-    local = std::make_unique<MapPair>(Downsample(world, 0.025));
-    res.stats.seconds_local_map += Since(t0);
-  };
+// BuildPoseGraph's state as it walks the log, one method per stage:
+// tracking each scan, keyframes, loop closures, optimisation.
+class GraphBuilder {
+ public:
+  GraphBuilder(const CarmenLog& log, const MapperOptions& o, std::ostream* progress)
+      : log_(log), o_(o), progress_(progress), graph_(res_.graph) {
+    res_.max_range = o.max_range > 0 ? o.max_range : log.max_reading;
+    match_max_ = std::min(o.max_match_range, res_.max_range - 1e-3);
+    const size_t n = log.scans.size();
+    res_.scan_poses.resize(n);
+    res_.dead_reckoning.resize(n);
+    scan_kf_.resize(n);
+    scan_rel_.resize(n);
+  }
 
-  SE2 current, dr;
-  double odo_num = 0, odo_den = 0;  // least-squares odometry scale
-  double path = 0;
-  bool loop_pending = false;
-  double path_at_last_loop = -1e9;
-  size_t last_opt_kf = 0;
-  auto optimize = [&](int iterations) {
-    const auto t0 = Clock::now();
-    const SE2 last_before = kf_pose(res.keyframes.size() - 1);
-    OptimizeOptions oo = o.optimize;
-    oo.max_iterations = iterations;
-    OptimizeGraph(graph, oo);
-    // Tracking continues from where the last keyframe now is.
-    current = kf_pose(res.keyframes.size() - 1) * last_before.Between(current);
-    ++res.stats.optimizations;
-    loop_pending = false;
-    last_opt_kf = res.keyframes.size() - 1;
-    res.stats.seconds_optimizing += Since(t0);
-  };
+  MapResult Run() {
+    for (size_t i = 0; i < log_.scans.size(); ++i) AddScan(i);
+    if (res_.keyframes.size() > 1) Optimize(std::max(o_.optimize.max_iterations, 50));
+    res_.stats.odometry_scale = OdometryScale();
+    for (size_t i = 0; i < scan_kf_.size(); ++i)
+      res_.scan_poses[i] = KeyframePose(scan_kf_[i]) * scan_rel_[i];
+    return std::move(res_);
+  }
 
-  for (size_t i = 0; i < n; ++i) {
-    const LaserScan& scan = log.scans[i];
-    PointCloud cloud = ScanToCloud(scan, o.min_range, match_max);
-    if (i > 0) dr = dr * scan.odometry_increment;
-    res.dead_reckoning[i] = dr;
+ private:
+  SE2 KeyframePose(size_t k) const { return ToSE2(graph_.vertex(static_cast<int64_t>(k)).x); }
+  double OdometryScale() const {
+    return odo_den_ > 1.0 ? std::clamp(odo_num_ / odo_den_, 0.8, 1.25) : 1.0;
+  }
+
+  void AddScan(size_t i) {
+    const LaserScan& scan = log_.scans[i];
+    PointCloud cloud = ScanToCloud(scan, o_.min_range, match_max_);
+    if (i > 0) dr_ = dr_ * scan.odometry_increment;
+    res_.dead_reckoning[i] = dr_;
     if (i == 0) {
-      graph.AddVertex(0, SE2(), true);
-      res.keyframes.push_back({0, 0.0, std::move(cloud)});
-      rebuild_local();
-      scan_kf[i] = 0;
-      continue;
+      graph_.AddVertex(0, SE2(), true);
+      res_.keyframes.push_back({0, 0.0, std::move(cloud)});
+      RebuildLocalMap();
+      scan_kf_[i] = 0;
+      return;
     }
+    Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
+    const bool tracked = Track(scan, cloud, &info);
+
+    const size_t last = res_.keyframes.size() - 1;
+    const SE2 since = KeyframePose(last).Between(current_);
+    if (since.translation().norm() < o_.keyframe_distance &&
+        std::abs(since.theta()) < o_.keyframe_angle) {
+      scan_kf_[i] = last;
+      scan_rel_[i] = since;
+      return;
+    }
+    const size_t K = AddKeyframe(i, since, tracked ? &info : nullptr, std::move(cloud));
+    const auto t1 = Clock::now();
+    CloseLoops(i, K);
+    res_.stats.seconds_loops += Since(t1);
+    if (loop_pending_ && K - last_opt_kf_ >= static_cast<size_t>(o_.optimize_every)) Optimize(20);
+    RebuildLocalMap();
+  }
+
+  // Moves current_ to the scan's pose: the local map's match when it holds,
+  // else the odometry's prediction. *info is the match's, in the body frame.
+  bool Track(const LaserScan& scan, const PointCloud& cloud, Eigen::Matrix3d* info) {
     const auto t0 = Clock::now();
-    const SE2 prev = current;
+    const SE2 prev = current_;
     // Wheel odometry often has a scale error of a percent or two, which a
     // corridor cannot reveal; learn it where the walls do constrain travel.
-    const double scale = odo_den > 1.0 ? std::clamp(odo_num / odo_den, 0.8, 1.25) : 1.0;
+    const double scale = OdometryScale();
     const SE2& inc = scan.odometry_increment;
-    const SE2 predicted = current * SE2(scale * inc.x(), scale * inc.y(), inc.theta());
-    Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
+    const SE2 predicted = current_ * SE2(scale * inc.x(), scale * inc.y(), inc.theta());
     bool tracked = false;
     if (cloud.size() >= 20) {
-      CorrelativeOptions co;
-      co.linear_window = o.track_linear_window;
-      co.angular_window = o.track_angular_window;
-      const CorrelativeResult cr =
-          CorrelativeMatch(*local->coarse, *local->fine, SearchPoints(cloud), predicted, co);
-      const PointCloud icp_cloud = Downsample(cloud, 0.05);
-      IcpResult icp = IcpMatch(*local->fine, icp_cloud, cr.pose, IcpOptions{});
-      // ICP only polishes the search's answer. A long slide is a corridor
-      // pulling the pose along its free axis on a few stray pairs: keep the
-      // search's pose (which leans on the odometry there) and measure its
-      // fit without iterating.
-      const SE2 slide = cr.pose.Between(icp.pose);
-      if (slide.translation().norm() > o.track_max_slide || std::abs(slide.theta()) > 0.05) {
-        IcpOptions still;
-        still.max_iterations = 0;
-        icp = IcpMatch(*local->fine, icp_cloud, cr.pose, still);
-        icp.converged = icp.inliers >= 10;
-      }
-      if (icp.converged && icp.inlier_fraction >= o.track_min_inliers) {
-        current = icp.pose;
-        info = ToBodyFrame(icp.information, icp.pose);
+      const IcpResult icp = MatchLocalMap(cloud, predicted);
+      if (icp.converged && icp.inlier_fraction >= o_.track_min_inliers) {
+        current_ = icp.pose;
+        *info = ToBodyFrame(icp.information, icp.pose);
         tracked = true;
-        const double var_forward = info.inverse()(0, 0);
+        const double var_forward = info->inverse()(0, 0);
         if (std::abs(inc.x()) > 0.1 && var_forward < 0.03 * 0.03) {
-          odo_num += inc.x() * prev.Between(current).x();
-          odo_den += inc.x() * inc.x();
+          odo_num_ += inc.x() * prev.Between(current_).x();
+          odo_den_ += inc.x() * inc.x();
         }
       }
     }
     if (!tracked) {
-      current = predicted;
-      ++res.stats.tracking_failures;
+      current_ = predicted;
+      ++res_.stats.tracking_failures;
     }
-    path += prev.Between(current).translation().norm();
-    res.stats.seconds_matching += Since(t0);
+    path_ += prev.Between(current_).translation().norm();
+    res_.stats.seconds_matching += Since(t0);
+    return tracked;
+  }
 
-    const size_t last = res.keyframes.size() - 1;
-    const SE2 since = kf_pose(last).Between(current);
-    if (since.translation().norm() < o.keyframe_distance && std::abs(since.theta()) < o.keyframe_angle) {
-      scan_kf[i] = last;
-      scan_rel[i] = since;
-      continue;
+  IcpResult MatchLocalMap(const PointCloud& cloud, const SE2& predicted) const {
+    CorrelativeOptions co;
+    co.linear_window = o_.track_linear_window;
+    co.angular_window = o_.track_angular_window;
+    const CorrelativeResult cr =
+        CorrelativeMatch(*local_->coarse, *local_->fine, SearchPoints(cloud), predicted, co);
+    const PointCloud icp_cloud = Downsample(cloud, 0.05);
+    IcpResult icp = IcpMatch(*local_->fine, icp_cloud, cr.pose, IcpOptions{});
+    // ICP only polishes the search's answer. A long slide is a corridor
+    // pulling the pose along its free axis on a few stray pairs: keep the
+    // search's pose (which leans on the odometry there) and measure its
+    // fit without iterating.
+    const SE2 slide = cr.pose.Between(icp.pose);
+    if (slide.translation().norm() > o_.track_max_slide || std::abs(slide.theta()) > 0.05) {
+      IcpOptions still;
+      still.max_iterations = 0;
+      icp = IcpMatch(*local_->fine, icp_cloud, cr.pose, still);
+      icp.converged = icp.inliers >= 10;
     }
-    // A new keyframe, tied to the previous one by the tracked motion.
-    const size_t K = res.keyframes.size();
-    graph.AddVertex(static_cast<int64_t>(K), current);
+    return icp;
+  }
+
+  // A new keyframe at current_, tied to the previous one by the tracked
+  // motion `since`; `match_info` is null when tracking fell back on odometry.
+  size_t AddKeyframe(size_t i, const SE2& since, const Eigen::Matrix3d* match_info,
+                     PointCloud cloud) {
+    const size_t last = res_.keyframes.size() - 1;
+    const size_t K = res_.keyframes.size();
+    graph_.AddVertex(static_cast<int64_t>(K), current_);
     Edge e;
     e.kind = EdgeKind::kOdometry;
     e.from = static_cast<int64_t>(last);
@@ -190,70 +203,138 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
     e.z = ToParams(since);
     // The tracked pose fuses odometry and the scan match: the match pins
     // what the walls constrain, the odometry the rest (along a corridor).
-    info = tracked ? Eigen::Matrix3d(info + OdometryInformation(since)) : OdometryInformation(since);
+    const Eigen::Matrix3d info = match_info
+                                     ? Eigen::Matrix3d(*match_info + OdometryInformation(since))
+                                     : OdometryInformation(since);
     e.information.topLeftCorner<3, 3>() = info;
-    graph.AddEdge(e);
-    res.keyframes.push_back({i, path, std::move(cloud)});
-    scan_kf[i] = K;
+    graph_.AddEdge(e);
+    res_.keyframes.push_back({i, path_, std::move(cloud)});
+    scan_kf_[i] = K;
+    return K;
+  }
 
-    // Loop closures: earlier keyframes near the current estimate, far
-    // enough back along the path that they are not in the local map.
-    const auto t1 = Clock::now();
+  // The search window for keyframe j: grows with the path since either j or
+  // the last loop closure, whichever is shorter.
+  double LoopRadius(size_t j) const {
+    const double travel = std::min(path_ - res_.keyframes[j].path, path_ - path_at_last_loop_);
+    return std::min(o_.loop_max_radius, o_.loop_radius + o_.loop_radius_growth * travel);
+  }
+
+  // Loop closures: earlier keyframes near the current estimate, far enough
+  // back along the path that they are not in the local map.
+  std::vector<size_t> LoopCandidates(size_t K) const {
     std::vector<std::pair<double, size_t>> near;
-    const SE2 xk = kf_pose(K);
+    const SE2 xk = KeyframePose(K);
     for (size_t j = 0; j + 1 < K; ++j) {
-      if (path - res.keyframes[j].path < o.loop_min_travel) continue;
-      const double travel = std::min(path - res.keyframes[j].path, path - path_at_last_loop);
-      const double radius = std::min(o.loop_max_radius, o.loop_radius + o.loop_radius_growth * travel);
-      const double d = (kf_pose(j).translation() - xk.translation()).norm();
-      if (d <= radius) near.emplace_back(d, j);
+      if (path_ - res_.keyframes[j].path < o_.loop_min_travel) continue;
+      const double d = (KeyframePose(j).translation() - xk.translation()).norm();
+      if (d <= LoopRadius(j)) near.emplace_back(d, j);
     }
     std::sort(near.begin(), near.end());
+    // The nearest few, no two with overlapping submaps.
     std::vector<size_t> tried;
     for (const auto& [d, j] : near) {
-      if (static_cast<int>(tried.size()) >= o.loop_max_candidates) break;
+      if (static_cast<int>(tried.size()) >= o_.loop_max_candidates) break;
       bool close_to_tried = false;
-      for (size_t t : tried) close_to_tried |= (j > t ? j - t : t - j) <= 2 * static_cast<size_t>(o.loop_submap_neighbours);
-      if (close_to_tried) continue;
-      tried.push_back(j);
-      ++res.stats.loop_candidates;
-      PointCloud submap;
-      const size_t lo = j > static_cast<size_t>(o.loop_submap_neighbours) ? j - o.loop_submap_neighbours : 0;
-      const size_t hi = std::min(K - 1, j + o.loop_submap_neighbours);
-      for (size_t m = lo; m <= hi; ++m) {
-        if (path - res.keyframes[m].path < o.loop_min_travel) continue;
-        submap.Append(res.keyframes[m].cloud, kf_pose(m));
-      }
-      PointCloud query;
-      const size_t qlo = K + 1 > static_cast<size_t>(o.loop_query_keyframes) ? K + 1 - o.loop_query_keyframes : 0;
-      for (size_t m = qlo; m <= K; ++m) query.Append(res.keyframes[m].cloud, xk.Between(kf_pose(m)));
-      const double travel = std::min(path - res.keyframes[j].path, path - path_at_last_loop);
-      const double window = std::min(o.loop_max_radius, o.loop_radius + o.loop_radius_growth * travel);
+      for (size_t t : tried)
+        close_to_tried |= (j > t ? j - t : t - j) <= 2 * static_cast<size_t>(o_.loop_submap_neighbours);
+      if (!close_to_tried) tried.push_back(j);
+    }
+    return tried;
+  }
+
+  // Keyframe j and its neighbours in the world frame (those far enough back).
+  PointCloud LoopSubmap(size_t j, size_t K) const {
+    PointCloud submap;
+    const size_t lo = j > static_cast<size_t>(o_.loop_submap_neighbours) ? j - o_.loop_submap_neighbours : 0;
+    const size_t hi = std::min(K - 1, j + o_.loop_submap_neighbours);
+    for (size_t m = lo; m <= hi; ++m) {
+      if (path_ - res_.keyframes[m].path < o_.loop_min_travel) continue;
+      submap.Append(res_.keyframes[m].cloud, KeyframePose(m));
+    }
+    return submap;
+  }
+
+  // Keyframe K and the ones before it, in K's frame.
+  PointCloud LoopQuery(size_t K) const {
+    PointCloud query;
+    const SE2 xk = KeyframePose(K);
+    const size_t qlo = K + 1 > static_cast<size_t>(o_.loop_query_keyframes) ? K + 1 - o_.loop_query_keyframes : 0;
+    for (size_t m = qlo; m <= K; ++m) query.Append(res_.keyframes[m].cloud, xk.Between(KeyframePose(m)));
+    return query;
+  }
+
+  void CloseLoops(size_t i, size_t K) {
+    const SE2 xk = KeyframePose(K);
+    for (size_t j : LoopCandidates(K)) {
+      ++res_.stats.loop_candidates;
+      const PointCloud submap = LoopSubmap(j, K);
       SE2 matched;
       Eigen::Matrix3d linfo;
-      if (!VerifyLoopClosure(submap, query, xk, window, o, &matched, &linfo)) continue;
+      if (!VerifyLoopClosure(submap, LoopQuery(K), xk, LoopRadius(j), o_, &matched, &linfo))
+        continue;
       Edge lc;
       lc.kind = EdgeKind::kLoopClosure;
       lc.from = static_cast<int64_t>(j);
       lc.to = static_cast<int64_t>(K);
-      lc.z = ToParams(kf_pose(j).Between(matched));
+      lc.z = ToParams(KeyframePose(j).Between(matched));
       lc.information.topLeftCorner<3, 3>() = linfo;
-      graph.AddEdge(lc);
-      ++res.stats.loop_accepted;
-      path_at_last_loop = path;
-      loop_pending = true;
-      if (progress)
-        *progress << "loop closure " << j << " -> " << K << " (scan " << i << "), correction "
-                  << (matched.translation() - xk.translation()).norm() << " m\n";
+      graph_.AddEdge(lc);
+      ++res_.stats.loop_accepted;
+      path_at_last_loop_ = path_;
+      loop_pending_ = true;
+      if (progress_)
+        *progress_ << "loop closure " << j << " -> " << K << " (scan " << i << "), correction "
+                   << (matched.translation() - xk.translation()).norm() << " m\n";
     }
-    res.stats.seconds_loops += Since(t1);
-    if (loop_pending && K - last_opt_kf >= static_cast<size_t>(o.optimize_every)) optimize(20);
-    rebuild_local();
   }
-  if (res.keyframes.size() > 1) optimize(std::max(o.optimize.max_iterations, 50));
-  res.stats.odometry_scale = odo_den > 1.0 ? std::clamp(odo_num / odo_den, 0.8, 1.25) : 1.0;
-  for (size_t i = 0; i < n; ++i) res.scan_poses[i] = kf_pose(scan_kf[i]) * scan_rel[i];
-  return res;
+
+  void RebuildLocalMap() {
+    PointCloud world;
+    const size_t K = res_.keyframes.size();
+    const size_t first = K > static_cast<size_t>(o_.local_map_keyframes) ? K - o_.local_map_keyframes : 0;
+    for (size_t k = first; k < K; ++k) world.Append(res_.keyframes[k].cloud, KeyframePose(k));
+    const auto t0 = Clock::now();
+    // Overlapping keyframes repeat points; one per 2.5 cm is plenty.
+    local_ = std::make_unique<MapPair>(Downsample(world, 0.025));
+    res_.stats.seconds_local_map += Since(t0);
+  }
+
+  void Optimize(int iterations) {
+    const auto t0 = Clock::now();
+    const SE2 last_before = KeyframePose(res_.keyframes.size() - 1);
+    OptimizeOptions oo = o_.optimize;
+    oo.max_iterations = iterations;
+    OptimizeGraph(graph_, oo);
+    // Tracking continues from where the last keyframe now is.
+    current_ = KeyframePose(res_.keyframes.size() - 1) * last_before.Between(current_);
+    ++res_.stats.optimizations;
+    loop_pending_ = false;
+    last_opt_kf_ = res_.keyframes.size() - 1;
+    res_.stats.seconds_optimizing += Since(t0);
+  }
+
+  const CarmenLog& log_;
+  const MapperOptions& o_;
+  std::ostream* progress_;
+  MapResult res_;
+  PoseGraph& graph_;
+  double match_max_ = 0;
+  std::vector<size_t> scan_kf_;  // each scan's keyframe...
+  std::vector<SE2> scan_rel_;    // ...and its pose relative to it
+  std::unique_ptr<MapPair> local_;
+  SE2 current_, dr_;
+  double odo_num_ = 0, odo_den_ = 0;  // least-squares odometry scale
+  double path_ = 0;
+  bool loop_pending_ = false;
+  double path_at_last_loop_ = -1e9;
+  size_t last_opt_kf_ = 0;
+};
+
+}  // namespace
+
+MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostream* progress) {
+  return GraphBuilder(log, o, progress).Run();
 }
 
 OccupancyGrid BuildOccupancyGrid(const CarmenLog& log, const std::vector<SE2>& poses,

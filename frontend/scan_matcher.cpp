@@ -227,85 +227,98 @@ CorrelativeResult CorrelativeMatch(const MatchMap& coarse, const MatchMap& fine,
           best.score > 0 ? runner_up / best.score : 1.0};
 }
 
-IcpResult IcpMatch(const MatchMap& map, const PointCloud& scan, const SE2& guess,
-                   const IcpOptions& o) {
-  IcpResult out;
-  double x = guess.x(), y = guess.y(), th = guess.theta();
-  const PointCloud& ref = map.cloud();
-  for (int it = 0; it < o.max_iterations; ++it) {
-    const double frac = std::min(1.0, it / (0.5 * o.max_iterations));
-    const double corr = o.max_correspondence + frac * (o.min_correspondence - o.max_correspondence);
-    const double c = std::cos(th), s = std::sin(th);
-    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d g = Eigen::Vector3d::Zero();
-    int used = 0;
-    for (size_t i = 0; i < scan.size(); ++i) {
-      const Eigen::Vector2d rp(c * scan.points[i].x() - s * scan.points[i].y(),
-                               s * scan.points[i].x() + c * scan.points[i].y());
-      const Eigen::Vector2d q = rp + Eigen::Vector2d(x, y);
-      const int j = map.Nearest(q);
-      if (j < 0 || !ref.has_normal[j]) continue;
-      const Eigen::Vector2d d = q - ref.points[j];
-      if (d.norm() > corr) continue;
-      const Eigen::Vector2d& nrm = ref.normals[j];
-      const double r = nrm.dot(d);
-      const Eigen::Vector3d J(nrm.x(), nrm.y(), nrm.dot(Eigen::Vector2d(-rp.y(), rp.x())));
-      const double k = 0.05;  // Huber: far residuals are likely wrong pairs
-      const double w = std::abs(r) < k ? 1.0 : k / std::abs(r);
-      H += w * J * J.transpose();
-      g += w * J * r;
-      ++used;
-    }
-    if (used < 10) break;
-    // Solve in H's eigenbasis and leave unobservable directions (a
-    // corridor's axis) where the guess put them, rather than let noise
-    // slide the pose along them.
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(H);
-    const Eigen::Vector3d lam = es.eigenvalues();
-    const Eigen::Vector3d proj = es.eigenvectors().transpose() * g;
-    Eigen::Vector3d step = Eigen::Vector3d::Zero();
-    for (int k = 0; k < 3; ++k)
-      if (lam[k] > 1e-3 * lam[2] && lam[k] > 1e-9) step[k] = -proj[k] / lam[k];
-    const Eigen::Vector3d delta = es.eigenvectors() * step;
-    x += delta[0];
-    y += delta[1];
-    th = NormalizeAngle(th + delta[2]);
-    if (frac >= 1.0 && delta.head<2>().norm() < 1e-4 && std::abs(delta[2]) < 1e-4) {
-      out.converged = true;
-      break;
-    }
-    if (it + 1 == o.max_iterations) out.converged = true;
-  }
-  out.pose = SE2(x, y, th);
+namespace {
 
-  // Fitness and the Hessian at the solution, with a fixed inlier radius.
+// A scan point's pair in the map: the point in the world frame, its offset
+// from the nearest map point, that point's normal (null when it has none)
+// and the Jacobian row of the point-to-line residual nrm . d.
+struct IcpPair {
+  Eigen::Vector2d rp;  // the point rotated into the world frame, before translation
+  Eigen::Vector2d d;
+  const Eigen::Vector2d* normal = nullptr;
+  bool found = false;
+};
+
+IcpPair Pair(const MatchMap& map, const Eigen::Vector2d& p, double x, double y, double c,
+             double s) {
+  IcpPair pair;
+  pair.rp = Eigen::Vector2d(c * p.x() - s * p.y(), s * p.x() + c * p.y());
+  const Eigen::Vector2d q = pair.rp + Eigen::Vector2d(x, y);
+  const int j = map.Nearest(q);
+  if (j < 0) return pair;
+  const PointCloud& ref = map.cloud();
+  pair.found = true;
+  pair.d = q - ref.points[j];
+  if (ref.has_normal[j]) pair.normal = &ref.normals[j];
+  return pair;
+}
+
+Eigen::Vector3d Jacobian(const IcpPair& pair) {
+  const Eigen::Vector2d& nrm = *pair.normal;
+  return Eigen::Vector3d(nrm.x(), nrm.y(), nrm.dot(Eigen::Vector2d(-pair.rp.y(), pair.rp.x())));
+}
+
+// The Huber-weighted normal equations H, g over the pairs within `corr`;
+// returns how many pairs went in.
+int Linearize(const MatchMap& map, const PointCloud& scan, double x, double y, double th,
+              double corr, Eigen::Matrix3d* H, Eigen::Vector3d* g) {
+  const double c = std::cos(th), s = std::sin(th);
+  *H = Eigen::Matrix3d::Zero();
+  *g = Eigen::Vector3d::Zero();
+  int used = 0;
+  for (size_t i = 0; i < scan.size(); ++i) {
+    const IcpPair pair = Pair(map, scan.points[i], x, y, c, s);
+    if (!pair.found || !pair.normal) continue;
+    if (pair.d.norm() > corr) continue;
+    const double r = pair.normal->dot(pair.d);
+    const Eigen::Vector3d J = Jacobian(pair);
+    const double k = 0.05;  // Huber: far residuals are likely wrong pairs
+    const double w = std::abs(r) < k ? 1.0 : k / std::abs(r);
+    *H += w * J * J.transpose();
+    *g += w * J * r;
+    ++used;
+  }
+  return used;
+}
+
+// Solve in H's eigenbasis and leave unobservable directions (a corridor's
+// axis) where the guess put them, rather than let noise slide the pose
+// along them.
+Eigen::Vector3d ObservableStep(const Eigen::Matrix3d& H, const Eigen::Vector3d& g) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(H);
+  const Eigen::Vector3d lam = es.eigenvalues();
+  const Eigen::Vector3d proj = es.eigenvectors().transpose() * g;
+  Eigen::Vector3d step = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k)
+    if (lam[k] > 1e-3 * lam[2] && lam[k] > 1e-9) step[k] = -proj[k] / lam[k];
+  return es.eigenvectors() * step;
+}
+
+// Fitness and the information at out->pose, with a fixed inlier radius.
+void MeasureFit(const MatchMap& map, const PointCloud& scan, double x, double y, double th,
+                const IcpOptions& o, IcpResult* out) {
   const double c = std::cos(th), s = std::sin(th);
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
   double sum_r = 0, sum_r2 = 0;
   int with_normal = 0;
   for (size_t i = 0; i < scan.size(); ++i) {
-    const Eigen::Vector2d rp(c * scan.points[i].x() - s * scan.points[i].y(),
-                             s * scan.points[i].x() + c * scan.points[i].y());
-    const Eigen::Vector2d q = rp + Eigen::Vector2d(x, y);
-    const int j = map.Nearest(q);
-    if (j < 0) continue;
-    const Eigen::Vector2d d = q - ref.points[j];
-    if (d.norm() > o.inlier_distance) continue;
-    ++out.inliers;
-    if (!ref.has_normal[j]) continue;
-    const Eigen::Vector2d& nrm = ref.normals[j];
-    const double r = nrm.dot(d);
-    const Eigen::Vector3d J(nrm.x(), nrm.y(), nrm.dot(Eigen::Vector2d(-rp.y(), rp.x())));
+    const IcpPair pair = Pair(map, scan.points[i], x, y, c, s);
+    if (!pair.found) continue;
+    if (pair.d.norm() > o.inlier_distance) continue;
+    ++out->inliers;
+    if (!pair.normal) continue;
+    const double r = pair.normal->dot(pair.d);
+    const Eigen::Vector3d J = Jacobian(pair);
     H += J * J.transpose();
     sum_r += std::abs(r);
     sum_r2 += r * r;
     ++with_normal;
   }
-  out.inlier_fraction = scan.size() ? static_cast<double>(out.inliers) / scan.size() : 0;
-  out.mean_residual = with_normal ? sum_r / with_normal : 1e9;
+  out->inlier_fraction = scan.size() ? static_cast<double>(out->inliers) / scan.size() : 0;
+  out->mean_residual = with_normal ? sum_r / with_normal : 1e9;
   if (with_normal < 10) {
-    out.converged = false;
-    return out;
+    out->converged = false;
+    return;
   }
   const double sigma2 = std::max(sum_r2 / std::max(1, with_normal - 3), 0.01 * 0.01);
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(H);
@@ -319,8 +332,35 @@ IcpResult IcpMatch(const MatchMap& map, const PointCloud& scan, const SE2& guess
   cov(0, 0) += o.min_sigma_xy * o.min_sigma_xy;
   cov(1, 1) += o.min_sigma_xy * o.min_sigma_xy;
   cov(2, 2) += o.min_sigma_theta * o.min_sigma_theta;
-  out.information = cov.inverse();
-  out.information = 0.5 * (out.information + out.information.transpose()).eval();
+  out->information = cov.inverse();
+  out->information = 0.5 * (out->information + out->information.transpose()).eval();
+}
+
+}  // namespace
+
+IcpResult IcpMatch(const MatchMap& map, const PointCloud& scan, const SE2& guess,
+                   const IcpOptions& o) {
+  IcpResult out;
+  double x = guess.x(), y = guess.y(), th = guess.theta();
+  for (int it = 0; it < o.max_iterations; ++it) {
+    // The correspondence radius shrinks over the first half of the iterations.
+    const double frac = std::min(1.0, it / (0.5 * o.max_iterations));
+    const double corr = o.max_correspondence + frac * (o.min_correspondence - o.max_correspondence);
+    Eigen::Matrix3d H;
+    Eigen::Vector3d g;
+    if (Linearize(map, scan, x, y, th, corr, &H, &g) < 10) break;
+    const Eigen::Vector3d delta = ObservableStep(H, g);
+    x += delta[0];
+    y += delta[1];
+    th = NormalizeAngle(th + delta[2]);
+    if (frac >= 1.0 && delta.head<2>().norm() < 1e-4 && std::abs(delta[2]) < 1e-4) {
+      out.converged = true;
+      break;
+    }
+    if (it + 1 == o.max_iterations) out.converged = true;
+  }
+  out.pose = SE2(x, y, th);
+  MeasureFit(map, scan, x, y, th, o, &out);
   return out;
 }
 

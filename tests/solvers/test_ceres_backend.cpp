@@ -1,6 +1,6 @@
 // The Ceres back-end: generated graphs with known optima, the gauge, fixed
-// vertices, robust losses, the report, `cairn optimize`, and the shared
-// datasets against the reference figures.
+// vertices, robust losses, the report, and the shared datasets against the
+// reference figures (`cairn optimize` is in tests/tools).
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -326,129 +326,6 @@ INSTANTIATE_TEST_SUITE_P(SharedFiles, CeresOnDataset, ::testing::ValuesIn(kRefer
                            name = name.substr(name.rfind('/') + 1);
                            return std::regex_replace(name, std::regex("[^A-Za-z0-9]"), "_");
                          });
-
-// ------------------------------------------------------ cairn optimize
-
-std::string Tool() { return CAIRN_TOOL; }
-
-TEST(OptimizeTool, WritesGraphReportAndPlot) {
-  Simulation sim = Simulated(2, 200);
-  const std::string dir = cairn::testing::TempDir();
-  const std::string in = dir + "/cairn_opt_in.g2o", out = dir + "/cairn_opt_out.g2o";
-  const std::string report = dir + "/cairn_opt.json", plot = dir + "/cairn_opt.svg";
-  WriteG2o(sim.noisy, in);
-  int status = -1;
-  const std::string log = testing::RunCommand(Tool() + " optimize '" + in + "' -o '" + out +
-                                                  "' --robust huber:1 --report '" + report +
-                                                  "' --plot '" + plot + "' 2>&1",
-                                              &status);
-  ASSERT_EQ(status, 0) << log;
-  // One progress line per iteration, then the summary.
-  EXPECT_NE(log.find("iter   0  chi2"), std::string::npos) << log;
-  std::ifstream rf(report);
-  const std::string json((std::istreambuf_iterator<char>(rf)), std::istreambuf_iterator<char>());
-  const double final_chi2 = testing::JsonNumber(json, "final_chi2");
-  EXPECT_LT(final_chi2, testing::JsonNumber(json, "initial_chi2"));
-  EXPECT_GT(testing::JsonNumber(json, "iterations"), 0);
-  EXPECT_GT(testing::JsonNumber(json, "time_s"), 0);
-  EXPECT_NE(json.find("\"termination\""), std::string::npos);
-  EXPECT_NE(json.find("\"robust\": \"huber:1\""), std::string::npos);
-  EXPECT_NEAR(Chi2(ReadGraph(out)), final_chi2, 1e-6 * final_chi2);
-  std::ifstream pf(plot);
-  const std::string svg((std::istreambuf_iterator<char>(pf)), std::istreambuf_iterator<char>());
-  EXPECT_EQ(svg.rfind("<?xml", 0), 0u);
-  EXPECT_NE(svg.find("</svg>"), std::string::npos);
-  EXPECT_NE(svg.find("#d62728"), std::string::npos);  // loop closures drawn
-}
-
-TEST(OptimizeTool, GaussNewtonReachesWhatCeresReaches) {
-  Simulation sim = Simulated(3, 200);
-  const std::string dir = cairn::testing::TempDir();
-  const std::string in = dir + "/cairn_gn_in.g2o";
-  WriteG2o(sim.noisy, in);
-  double final_chi2[2];
-  int k = 0;
-  for (const char* solver : {"ceres", "gn"}) {
-    const std::string report = dir + "/cairn_gn_" + solver + ".json";
-    int status = -1;
-    const std::string log = testing::RunCommand(
-        Tool() + " optimize --quiet --solver " + solver + " '" + in + "' -o '" + in +
-            ".out.g2o' --report '" + report + "' 2>&1",
-        &status);
-    ASSERT_EQ(status, 0) << log;
-    std::ifstream rf(report);
-    const std::string json((std::istreambuf_iterator<char>(rf)), std::istreambuf_iterator<char>());
-    EXPECT_NE(json.find(std::string("\"solver\": \"") + solver + "\""), std::string::npos);
-    final_chi2[k++] = testing::JsonNumber(json, "final_chi2");
-  }
-  EXPECT_NEAR(final_chi2[1], final_chi2[0], 1e-6 * final_chi2[0]);
-}
-
-// A TORO square whose loop closure disagrees with the odometry by 0.4 m:
-// read as TORO, written as g2o, chi2 lowered, vertex 0 held.
-TEST(OptimizeTool, ReadsToroWritesG2o) {
-  const std::string in = cairn::testing::TempDir() + "/cairn_toro.graph";
-  const std::string out = in + ".g2o";
-  std::ofstream(in) << "VERTEX2 0 0 0 0\nVERTEX2 1 1 0 1.5708\nVERTEX2 2 1 1 3.1416\n"
-                       "VERTEX2 3 0 1 -1.5708\n"
-                       "EDGE2 0 1 1 0 1.5708 1 0 1 1 0 0\n"
-                       "EDGE2 1 2 1 0 1.5708 1 0 1 1 0 0\n"
-                       "EDGE2 2 3 1 0 1.5708 1 0 1 1 0 0\n"
-                       "EDGE2 3 0 1.4 0 1.5708 1 0 1 1 0 0\n";
-  int status = -1;
-  const std::string log =
-      testing::RunCommand(Tool() + " optimize --quiet '" + in + "' -o '" + out + "' 2>&1", &status);
-  ASSERT_EQ(status, 0) << log;
-  const PoseGraph before = ReadGraph(in), after = ReadGraph(out);
-  std::ifstream f(out);
-  std::string first;
-  std::getline(f, first);
-  EXPECT_EQ(first.rfind("VERTEX_SE2 0 ", 0), 0u) << first;
-  EXPECT_LT(Chi2(after), 0.5 * Chi2(before));
-  EXPECT_EQ(after.vertex(0).x, before.vertex(0).x);
-}
-
-TEST(OptimizeTool, QuietPrintsNothing) {
-  Simulation sim = Simulated(3, 60);
-  const std::string in = cairn::testing::TempDir() + "/cairn_q_in.g2o";
-  WriteG2o(sim.noisy, in);
-  int status = -1;
-  const std::string log = testing::RunCommand(
-      Tool() + " optimize --quiet '" + in + "' -o '" + in + ".out.g2o' 2>&1", &status);
-  EXPECT_EQ(status, 0);
-  EXPECT_EQ(log, "");
-}
-
-TEST(OptimizeTool, BadInputNamesFileAndLine) {
-  const std::string path = cairn::testing::TempDir() + "/cairn_opt_bad.g2o";
-  std::ofstream(path) << "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0\n";
-  int status = 0;
-  const std::string out = testing::RunCommand(
-      Tool() + " optimize '" + path + "' -o '" + path + ".out' 2>&1", &status);
-  EXPECT_NE(status, 0);
-  EXPECT_NE(out.find("cairn: " + path + ":3: "), std::string::npos) << out;
-  EXPECT_FALSE(std::filesystem::exists(path + ".out"));
-}
-
-TEST(OptimizeTool, RejectsBadOptions) {
-  for (const char* args : {"--robust tukey:1", "--solver nope", "--method newton",
-                           "--sparse mkl", "--max-iterations -1", "--linear-solver mkl"}) {
-    int status = 0;
-    const std::string out = testing::RunCommand(
-        Tool() + " optimize in.g2o -o out.g2o " + args + " 2>&1", &status);
-    EXPECT_EQ(status, 2) << args << ": " << out;
-    EXPECT_EQ(out.rfind("cairn: ", 0), 0u) << out;
-  }
-}
-
-TEST(OptimizeTool, HelpDescribesEveryOption) {
-  int status = -1;
-  const std::string help = testing::RunCommand(Tool() + " optimize --help", &status);
-  EXPECT_EQ(status, 0);
-  for (const char* opt : {"--output", "-o", "--solver", "--max-iterations", "--robust",
-                          "--threads", "--report", "--plot", "--quiet", "--method", "--sparse"})
-    EXPECT_NE(help.find(opt), std::string::npos) << opt;
-}
 
 }  // namespace
 }  // namespace cairn

@@ -1,0 +1,262 @@
+// The hand-written Gauss-Newton path: a linear problem in one step, the same
+// optimum as Ceres on the same factors, gauge and fixed vertices, the damped
+// fallback, and every linear solver under it (the factorisations alone are
+// in tests/linear).
+#include <gtest/gtest.h>
+
+#include <ceres/autodiff_cost_function.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cstdlib>
+#include <random>
+
+#include "cairn/solvers/ceres_solver.h"
+#include "cairn/graph/chi2.h"
+#include "cairn/solvers/graph_gauss_newton.h"
+#include "cairn/solvers/linear_solver.h"
+#include "cairn/graph/pose_difference.h"
+#include "cairn/graph/simulate.h"
+
+namespace cairn {
+namespace {
+
+// The seeds' odometry calibration: u*_i = X u_i, linear in the 9 entries of X.
+struct CalibrationResidual {
+  CalibrationResidual(const Eigen::Vector3d& u, const Eigen::Vector3d& u_star)
+      : u_(u), u_star_(u_star) {}
+  template <typename T>
+  bool operator()(const T* x, T* r) const {
+    for (int i = 0; i < 3; ++i)
+      r[i] = T(u_star_[i]) - (x[3 * i] * u_[0] + x[3 * i + 1] * u_[1] + x[3 * i + 2] * u_[2]);
+    return true;
+  }
+  Eigen::Vector3d u_, u_star_;
+};
+
+GaussNewtonOptions Quiet() {
+  GaussNewtonOptions o;
+  o.verbose = false;
+  o.function_tolerance = 1e-12;  // tighter than the default: these compare optima
+  o.parameter_tolerance = 1e-12;
+  return o;
+}
+
+TEST(GaussNewton, LinearProblemConvergesInOneIteration) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0, 1);
+  Eigen::Matrix3d x_true;
+  x_true << 1.05, 0.02, 0.0, -0.01, 0.97, 0.0, 0.0, 0.01, 1.1;
+  std::vector<Eigen::Vector3d> u, us;
+  for (int i = 0; i < 50; ++i) {
+    u.emplace_back(n(rng), n(rng), n(rng));
+    us.push_back(x_true * u.back() + 0.01 * Eigen::Vector3d(n(rng), n(rng), n(rng)));
+  }
+  // Closed form: each row of X from the normal equations (sum u u^T) x = sum u u*_k.
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero(), b = Eigen::Matrix3d::Zero();
+  for (size_t i = 0; i < u.size(); ++i) {
+    a += u[i] * u[i].transpose();
+    b += u[i] * us[i].transpose();
+  }
+  const Eigen::Matrix3d x_closed = a.ldlt().solve(b).transpose();
+
+  double x[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  GaussNewtonProblem problem;
+  for (size_t i = 0; i < u.size(); ++i)
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CalibrationResidual, 3, 9>(
+                                 new CalibrationResidual(u[i], us[i])),
+                             nullptr, {x});
+  GaussNewtonOptions o = Quiet();
+  o.function_tolerance = 1e-12;
+  o.max_iterations = 1;
+  const SolveResult r = problem.Solve(o);
+  EXPECT_EQ(r.iterations, 1);
+  for (int i = 0; i < 9; ++i) EXPECT_NEAR(x[i], x_closed(i / 3, i % 3), 1e-12) << i;
+  // A second iteration finds nothing left to gain.
+  o.max_iterations = 10;
+  const SolveResult again = problem.Solve(o);
+  EXPECT_LE(again.iterations, 1);
+  EXPECT_NEAR(again.final_chi2, r.final_chi2, 1e-12 * r.final_chi2);
+  EXPECT_TRUE(again.converged);
+}
+
+// The Ceres path (same factors, manifolds and gauge), tightly converged.
+double SolveWithCeresTightly(PoseGraph& g) {
+  CeresOptions o;
+  o.function_tolerance = 1e-14;
+  o.gradient_tolerance = 1e-14;
+  o.parameter_tolerance = 1e-14;
+  o.max_iterations = 200;
+  return SolveWithCeres(g, o).final_chi2;
+}
+
+void ExpectSamePoses(const PoseGraph& a, const PoseGraph& b, double tol_m, double tol_rad) {
+  const PoseDifference d = ComparePoses(a, b);
+  EXPECT_LT(d.max_translation, tol_m);
+  EXPECT_LT(d.max_rotation_deg * M_PI / 180.0, tol_rad);
+}
+
+class SameOptimumAsCeres : public ::testing::TestWithParam<int> {};
+
+TEST_P(SameOptimumAsCeres, OnSimulatedGraph) {
+  SimulationOptions so;
+  so.dimension = GetParam();
+  so.poses = 400;
+  so.seed = 11;
+  so.nodes_per_lap = 20;
+  const Simulation sim = Simulate(so);
+  PoseGraph gn = sim.noisy, ceres = sim.noisy;
+  const SolveResult r = SolveGaussNewton(gn, Quiet());
+  const double ceres_chi2 = SolveWithCeresTightly(ceres);
+  EXPECT_TRUE(r.converged) << r.termination;
+  EXPECT_NEAR(r.final_chi2, Chi2(gn), 1e-9 * r.final_chi2);
+  EXPECT_NEAR(r.final_chi2 / ceres_chi2, 1.0, 1e-8);
+  ExpectSamePoses(gn, ceres, 1e-5, 1e-6);
+  // And close to the truth it was simulated from.
+  EXPECT_LT(r.final_chi2, r.initial_chi2 * 1e-2);
+  // Chi-squared never rises from one iteration to the next.
+  for (size_t k = 1; k < r.trace.size(); ++k) EXPECT_LE(r.trace[k].chi2, r.trace[k - 1].chi2);
+}
+
+INSTANTIATE_TEST_SUITE_P(Dimensions, SameOptimumAsCeres, ::testing::Values(2, 3));
+
+TEST(GaussNewton, GaugeAndFixedVerticesStayPut) {
+  SimulationOptions so;
+  so.poses = 200;
+  so.seed = 5;
+  Simulation sim = Simulate(so);
+  PoseGraph g = sim.noisy;
+  const PoseParams first = g.vertex(0).x;
+  SolveGaussNewton(g, Quiet());
+  EXPECT_EQ(g.vertex(0).x, first);  // the gauge: lowest id, no FIX
+
+  PoseGraph h = sim.noisy;
+  h.vertex(50).fixed = true;
+  h.vertex(120).fixed = true;
+  const PoseParams p50 = h.vertex(50).x, p120 = h.vertex(120).x, p0 = h.vertex(0).x;
+  SolveGaussNewton(h, Quiet());
+  EXPECT_EQ(h.vertex(50).x, p50);
+  EXPECT_EQ(h.vertex(120).x, p120);
+  EXPECT_NE(h.vertex(0).x, p0);  // no longer the gauge once vertices are fixed
+}
+
+TEST(GaussNewton, DampedFallbackNeverRaisesChi2) {
+  // Rotations far from the truth make the first Gauss-Newton steps poor.
+  SimulationOptions so;
+  so.poses = 300;
+  so.rotation_noise = 0.2;
+  so.seed = 9;
+  so.loop_probability = 1.0;
+  Simulation sim = Simulate(so);
+  PoseGraph g = sim.noisy;
+  const SolveResult r = SolveGaussNewton(g, Quiet());
+  EXPECT_LE(r.final_chi2, r.initial_chi2);
+  for (size_t k = 1; k < r.trace.size(); ++k) EXPECT_LE(r.trace[k].chi2, r.trace[k - 1].chi2);
+  EXPECT_TRUE(std::isfinite(r.final_chi2));
+  EXPECT_NEAR(r.final_chi2, Chi2(g), 1e-9 * r.final_chi2);
+}
+
+TEST(GaussNewton, EveryLinearSolverAgrees) {
+  SimulationOptions so;
+  so.dimension = 3;
+  so.poses = 300;
+  so.nodes_per_lap = 15;
+  const Simulation sim = Simulate(so);
+  std::vector<PoseGraph> results;
+  std::vector<double> chi2;
+  for (CholeskyKind kind : {CholeskyKind::kSupernodal, CholeskyKind::kSimplicial,
+                            CholeskyKind::kSupernodalOrSimplicial, CholeskyKind::kTwoHalves,
+                            CholeskyKind::kEigenLDLT}) {
+    PoseGraph g = sim.noisy;
+    GaussNewtonOptions o = Quiet();
+    o.linear_solver = kind;
+    chi2.push_back(SolveGaussNewton(g, o).final_chi2);
+    results.push_back(g);
+  }
+  for (size_t k = 1; k < results.size(); ++k) {
+    EXPECT_NEAR(chi2[k] / chi2[0], 1.0, 1e-9);
+    ExpectSamePoses(results[0], results[k], 1e-7, 1e-8);
+  }
+}
+
+// A graph large enough for the factorisation in two halves at once, solved
+// with it and with one CHOLMOD factorisation: the same steps.
+TEST(GaussNewton, TwoHalvesAtOnceAgreeWithOneFactorisation) {
+  SimulationOptions so;
+  so.poses = 10000;
+  so.nodes_per_lap = 100;
+  const Simulation sim = Simulate(so);
+  PoseGraph split = sim.noisy, whole = sim.noisy;
+  GaussNewtonOptions o = Quiet();
+  o.threads = 2;
+  o.linear_solver = CholeskyKind::kTwoHalves;
+  const SolveResult a = SolveGaussNewton(split, o);
+  EXPECT_NE(a.linear_solver.find("two halves"), std::string::npos) << a.linear_solver;
+  o.linear_solver = CholeskyKind::kSupernodal;
+  const SolveResult b = SolveGaussNewton(whole, o);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_NEAR(a.final_chi2 / b.final_chi2, 1.0, 1e-9);
+  ExpectSamePoses(split, whole, 1e-7, 1e-8);
+}
+
+TEST(GaussNewton, ThreadsDoNotChangeTheResult) {
+  SimulationOptions so;
+  so.poses = 500;
+  const Simulation sim = Simulate(so);
+  PoseGraph one = sim.noisy, four = sim.noisy;
+  GaussNewtonOptions o = Quiet();
+  o.threads = 1;
+  const double a = SolveGaussNewton(one, o).final_chi2;
+  o.threads = 4;
+  const double b = SolveGaussNewton(four, o).final_chi2;
+  EXPECT_EQ(a, b);
+  for (size_t i = 0; i < one.vertices().size(); ++i)
+    EXPECT_EQ(one.vertices()[i].x, four.vertices()[i].x);
+}
+
+TEST(GaussNewton, RobustLossDownWeightsAWrongLoopClosure) {
+  SimulationOptions so;
+  so.poses = 300;
+  so.outliers = 1;
+  so.seed = 21;
+  const Simulation sim = Simulate(so);
+  PoseGraph plain = sim.noisy, robust = sim.noisy;
+  SolveGaussNewton(plain, Quiet());
+  GaussNewtonOptions o = Quiet();
+  o.loop_closure_loss = ParseRobustLoss("cauchy:1");
+  SolveGaussNewton(robust, o);
+  // Distance from the truth: the robust solve stays close, plain least squares is pulled away.
+  auto error = [&](const PoseGraph& g) { return ComparePoses(g, sim.truth).max_translation; };
+  EXPECT_LT(error(robust), 0.5);
+  EXPECT_GT(error(plain), 2 * error(robust));
+}
+
+
+TEST(GaussNewton, ChordStepsReachTheSameOptimumWithFewerFactorisations) {
+  SimulationOptions so;
+  so.dimension = 3;
+  so.poses = 400;
+  so.nodes_per_lap = 20;
+  so.seed = 12;
+  const Simulation sim = Simulate(so);
+  PoseGraph full = sim.noisy, chord = sim.noisy;
+  GaussNewtonOptions o;
+  o.verbose = false;
+  o.function_tolerance = 1e-15;
+  o.parameter_tolerance = 1e-12;
+  o.gradient_tolerance = 1e-12;
+  o.reuse_factorization = false;
+  const SolveResult a = SolveGaussNewton(full, o);
+  o.reuse_factorization = true;
+  const SolveResult b = SolveGaussNewton(chord, o);
+  EXPECT_EQ(a.reused_factorizations, 0);
+  EXPECT_GT(b.reused_factorizations, 0);
+  EXPECT_NEAR(b.final_chi2 / a.final_chi2, 1.0, 1e-12);
+  for (size_t i = 0; i < full.vertices().size(); ++i)
+    EXPECT_LT((ToSE3(full.vertices()[i].x).translation() -
+               ToSE3(chord.vertices()[i].x).translation()).norm(),
+              1e-7);
+}
+
+}  // namespace
+}  // namespace cairn

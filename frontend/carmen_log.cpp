@@ -4,6 +4,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <memory>
@@ -11,6 +12,7 @@
 #include <stdexcept>
 
 #include "cairn/graph/graph_io.h"
+#include "cairn/graph/text_input.h"
 
 namespace cairn::frontend {
 namespace {
@@ -48,6 +50,18 @@ class LineParser {
       Fail(std::string("bad ") + what + " '" + t_[i] + "'");
     return v;
   }
+  // Fields i, i+1, i+2 as a pose (x, y, theta) within the sane ranges: a
+  // corrupt field is this line's error, not a failure far off in the mapper.
+  SE2 Pose(size_t i) const {
+    const double x = Double(i, "x"), y = Double(i + 1, "y"), theta = Double(i + 2, "theta");
+    if (std::fabs(x) > kMaxAbsCoordinate || std::fabs(y) > kMaxAbsCoordinate)
+      Fail("pose (" + t_[i] + ", " + t_[i + 1] + ") is out of range (coordinates at most " +
+           Shorten(kMaxAbsCoordinate) + " in magnitude)");
+    if (std::fabs(theta) > kMaxAbsAngle)
+      Fail("theta " + t_[i + 2] + " is out of range (at most " + Shorten(kMaxAbsAngle) +
+           " rad in magnitude)");
+    return SE2(x, y, theta);
+  }
   int Count(size_t i, const char* what, int max) const {
     const double v = Double(i, what);
     if (v < 0 || v > max || v != std::floor(v))
@@ -59,41 +73,52 @@ class LineParser {
   }
 
  private:
+  static std::string Shorten(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
+  }
+
   const std::string& file_;
   size_t line_;
   std::vector<std::string> t_;
 };
 
-// gzopen reads plain files transparently, so one path serves both.
+// gzopen reads plain files transparently, so one path serves both; the
+// lines themselves come through the readers' common TextInput.
 class LineReader {
  public:
-  explicit LineReader(const std::string& path) : file_(gzopen(path.c_str(), "rb")) {
+  LineReader(const std::string& path, size_t max_line_bytes)
+      : file_(gzopen(path.c_str(), "rb")),
+        input_([this](char* buf, size_t n) { return Read(buf, n); }, path, max_line_bytes) {
     if (!file_) throw std::runtime_error(path + ": cannot open: " + std::strerror(errno));
     gzbuffer(file_, 1 << 17);
   }
-  ~LineReader() { gzclose(file_); }
+  ~LineReader() {
+    if (file_) gzclose(file_);
+  }
   LineReader(const LineReader&) = delete;
   LineReader& operator=(const LineReader&) = delete;
 
   bool Next(std::string* line) {
-    line->clear();
-    char buf[8192];
-    while (gzgets(file_, buf, sizeof buf)) {
-      line->append(buf);
-      if (!line->empty() && line->back() == '\n') {
-        line->pop_back();
-        if (!line->empty() && line->back() == '\r') line->pop_back();
-        return true;
-      }
-    }
-    int err = 0;
-    const char* msg = gzerror(file_, &err);
-    if (err != Z_OK && err != Z_STREAM_END) throw std::runtime_error(std::string("read error: ") + msg);
-    return !line->empty();
+    if (!input_.Next(line)) return false;
+    if (line->find('\0') != std::string::npos)
+      throw ParseError(input_.name(), input_.line(), "binary data (a NUL byte), not a CARMEN log");
+    return true;
   }
 
  private:
+  size_t Read(char* buf, size_t n) {
+    const int got = gzread(file_, buf, static_cast<unsigned>(n));
+    if (got < 0) {
+      int err = 0;
+      throw std::runtime_error(std::string("read error: ") + gzerror(file_, &err));
+    }
+    return static_cast<size_t>(got);
+  }
+
   gzFile file_;
+  TextInput input_;
 };
 
 // FLASER n r1 .. rn x y theta odom_x odom_y odom_theta timestamp ...: the
@@ -110,7 +135,7 @@ size_t ParseFlaser(LineParser& p, LaserScan* scan) {
   const bool closed = (n % 2) == 1;
   scan->angle_increment = fov / (closed ? n - 1 : n);
   scan->angle_min = -M_PI / 2;
-  scan->reference = SE2(p.Double(k, "x"), p.Double(k + 1, "y"), p.Double(k + 2, "theta"));
+  scan->reference = p.Pose(k);
   return k + 6;
 }
 
@@ -131,8 +156,8 @@ size_t ParseRobotLaser(LineParser& p, LaserScan* scan) {
   const int nr = p.Count(k, "number of remissions", 100000);
   k += 1 + nr;
   p.Need(k + 14);
-  const SE2 laser(p.Double(k, "x"), p.Double(k + 1, "y"), p.Double(k + 2, "theta"));
-  scan->reference = SE2(p.Double(k + 3, "x"), p.Double(k + 4, "y"), p.Double(k + 5, "theta"));
+  const SE2 laser = p.Pose(k);
+  scan->reference = p.Pose(k + 3);
   scan->laser_offset = scan->reference.Between(laser);
   scan->angle_min = start;
   scan->angle_increment = res;
@@ -166,10 +191,10 @@ class OdometryChain {
 
 }  // namespace
 
-CarmenLog ReadCarmenLog(const std::string& path) {
+CarmenLog ReadCarmenLog(const std::string& path, size_t max_line_bytes) {
   CarmenLog log;
   log.path = path;
-  LineReader reader(path);
+  LineReader reader(path, max_line_bytes);
   std::string text;
   size_t line_no = 0;
   OdometryChain odometry;
@@ -187,7 +212,7 @@ CarmenLog ReadCarmenLog(const std::string& path) {
     }
     if (tag == "ODOM") {
       p.Need(10);
-      const SE2 pose(p.Double(1, "x"), p.Double(2, "y"), p.Double(3, "theta"));
+      const SE2 pose = p.Pose(1);
       p.Double(7, "timestamp");
       odometry.Odom(pose);
       continue;

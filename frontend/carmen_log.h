@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cairn/graph/geometry.h"
+#include "cairn/graph/text_input.h"
 
 namespace cairn::frontend {
 
@@ -39,7 +40,9 @@ struct CarmenLog {
 
 // Reads FLASER, ROBOTLASER1, ODOM and PARAM lines; other lines are ignored.
 // Throws cairn::ParseError ("FILE:LINE: message") on a malformed line and
-// std::runtime_error when the file cannot be read.
-CarmenLog ReadCarmenLog(const std::string& path);
+// std::runtime_error when the file cannot be read. Poses must be finite,
+// within kMaxAbsCoordinate and kMaxAbsAngle; a line longer than
+// max_line_bytes is an error (text_input.h).
+CarmenLog ReadCarmenLog(const std::string& path, size_t max_line_bytes = kDefaultMaxLineBytes);
 
 }  // namespace cairn::frontend

@@ -12,6 +12,7 @@
 
 #include "cairn/graph/graph_io.h"
 #include "cairn/graph/output_files.h"
+#include "cairn/graph/text_input.h"
 #include "cairn/frontend/carmen_log.h"
 
 namespace cairn::frontend {
@@ -51,10 +52,10 @@ Trajectory FromG2o(const std::string& path) {
 
 Trajectory FromTum(const std::string& path, std::istream& in) {
   Trajectory t;
+  TextInput input(in, path);
   std::string line;
-  size_t no = 0;
-  while (std::getline(in, line)) {
-    ++no;
+  while (input.Next(&line)) {
+    const size_t no = input.line();
     const size_t first = line.find_first_not_of(" \t\r");
     if (first == std::string::npos || line[first] == '#') continue;
     std::istringstream is(line);
@@ -90,7 +91,8 @@ Trajectory ReadTrajectory(const std::string& path) {
   if (!in) throw std::runtime_error(path + ": cannot open");
   // Sniff: a CARMEN or g2o file names its lines with tags.
   std::string line;
-  while (std::getline(in, line)) {
+  TextInput sniff(in, path);
+  while (sniff.Next(&line)) {
     std::istringstream is(line);
     std::string tag;
     if (!(is >> tag) || tag[0] == '#') continue;

@@ -170,6 +170,7 @@ std::string ArgParser::Help() const {
     if (!o.is_flag && !o.default_text.empty()) os << " [default: " << o.default_text << "]";
     os << "\n";
   }
+  os << GlobalOptionsHelp();
   return os.str();
 }
 
@@ -190,6 +191,36 @@ std::vector<int64_t> ParseIdList(const std::string& text) {
     pos = comma + 1;
   }
   return ids;
+}
+
+GlobalOptions& Globals() {
+  static GlobalOptions options;
+  return options;
+}
+
+void TakeGlobalOptions(int* argc, char** argv, GlobalOptions* out) {
+  int kept = 1;
+  bool only_positionals = false;
+  for (int i = 1; i < *argc; ++i) {
+    const std::string arg = argv[i];
+    only_positionals |= arg == "--";
+    if (!only_positionals && arg == "--verbose") {
+      out->verbose = true;
+    } else if (!only_positionals && arg == "--keep-unknown") {
+      out->keep_unknown = true;
+    } else {
+      argv[kept++] = argv[i];
+    }
+  }
+  argv[kept] = nullptr;
+  *argc = kept;
+}
+
+std::string GlobalOptionsHelp() {
+  return "\nglobal options (every command):\n"
+         "  --verbose               also show the solvers' log lines (glog, Ceres's and cairn's)\n"
+         "  --keep-unknown          carry lines with tags cairn does not know through verbatim\n"
+         "                          (written back in place by g2o output) instead of refusing them\n";
 }
 
 }  // namespace cairn::tools

@@ -52,6 +52,21 @@ class ArgParser {
   std::vector<Pos> positionals_;
 };
 
+// Options every sub-command accepts. main() takes them out of argv before
+// the sub-command parses the rest, so no command declares them.
+struct GlobalOptions {
+  bool verbose = false;       // glog's lines (Ceres's and cairn's own) on stderr
+  bool keep_unknown = false;  // ReadOptions::keep_unknown for every graph read
+};
+GlobalOptions& Globals();
+
+// Removes --verbose and --keep-unknown from argv[1..*argc) (up to a "--"),
+// setting them in *out; argv stays null-terminated.
+void TakeGlobalOptions(int* argc, char** argv, GlobalOptions* out);
+
+// The --help section that lists the global options.
+std::string GlobalOptionsHelp();
+
 // Shared by the sub-commands: prints "cairn: message" to stderr.
 void PrintError(const std::string& message);
 

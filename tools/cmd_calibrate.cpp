@@ -181,7 +181,7 @@ int RunCalibrate(int argc, char** argv) {
     source = carmen;
   } else {
     ReadOptions ro;
-    ro.warnings = &std::cerr;
+    ro.keep_unknown = Globals().keep_unknown;
     data = CalibrationFromGraphs(ReadGraph(g2o, ro), ReadGraph(odometry, ro), edge_information);
     source = g2o + " + " + odometry;
   }

@@ -86,7 +86,7 @@ int RunCompare(int argc, char** argv) {
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
   if (repeat < 1) {
-    std::fprintf(stderr, "cairn compare: --repeat must be at least 1\n");
+    PrintError("--repeat must be at least 1");
     return 2;
   }
   common.loop_closure_loss = ParseRobustLoss(robust);
@@ -101,7 +101,7 @@ int RunCompare(int argc, char** argv) {
   go.reuse_factorization = !no_chord;
 
   ReadOptions ro;
-  ro.warnings = &std::cerr;
+  ro.keep_unknown = Globals().keep_unknown;
   const InitMethod init_method = ParseInitMethod(init);
   PoseGraph input = ReadGraph(path, ro);
   const InitReport init_report = Initialize(input, init_method);

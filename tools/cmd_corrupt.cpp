@@ -43,7 +43,9 @@ int RunCorrupt(int argc, char** argv) {
     return 2;
   }
   if (list.empty()) list = out + ".outliers.txt";
-  PoseGraph graph = ReadGraph(in);
+  ReadOptions read_options;
+  read_options.keep_unknown = Globals().keep_unknown;
+  PoseGraph graph = ReadGraph(in, read_options);
   if (fraction >= 0)
     outliers = static_cast<int>(
         std::lround(fraction * static_cast<double>(graph.CountEdges(EdgeKind::kLoopClosure))));

@@ -14,22 +14,25 @@ namespace {
 int RunInfo(int argc, char** argv) {
   std::string path;
   bool json = false, strict = false;
-  ArgParser args("info FILE [--json] [--strict]",
+  ArgParser args("info FILE [--json]",
                  "Reads a g2o or TORO pose graph and prints its vertices, odometry edges,\n"
                  "loop closures, priors, fixed vertices, connected components and the\n"
                  "chi-squared of the estimate in the file (g2o's definition: the sum of\n"
                  "e^T Omega e over the edges). A file without vertices gets them from its\n"
-                 "edges along a spanning tree, and its chi-squared is of that estimate.");
+                 "edges along a spanning tree, and its chi-squared is of that estimate.\n"
+                 "A tag cairn does not know is an error naming its line (--keep-unknown\n"
+                 "accepts it).");
   args.Positional("FILE", &path, "a .g2o or TORO .graph file");
   args.Flag("json", &json, "print one JSON object (keys vertices, odometry_edges, loop_closures, "
                            "priors, fixed, components, chi2, dimension)");
-  args.Flag("strict", &strict, "refuse tags cairn does not know instead of skipping them");
+  args.Flag("strict", &strict, "accepted for old scripts: unknown tags are always refused now "
+                               "(unless --keep-unknown)");
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
 
   ReadOptions options;
   options.strict = strict;
-  options.warnings = &std::cerr;
+  options.keep_unknown = Globals().keep_unknown;
   const PoseGraph graph = ReadGraph(path, options);
   const size_t components = ConnectedComponents(graph).size();
   const double chi2 = Chi2(graph);

@@ -143,7 +143,8 @@ int RunOptimize(int argc, char** argv) {
               "spanning-tree (chained along the most certain edges) or chordal (chordal "
               "relaxation of the rotations, then linear translations)");
   args.Flag("quiet", &quiet, "no progress lines and no summary");
-  args.Flag("strict", &strict, "refuse tags cairn does not know instead of skipping them");
+  args.Flag("strict", &strict, "accepted for old scripts: unknown tags are always refused now "
+                               "(unless --keep-unknown)");
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
   if (out.empty()) {
@@ -193,7 +194,7 @@ int RunOptimize(int argc, char** argv) {
   }
   ReadOptions read_options;
   read_options.strict = strict;
-  read_options.warnings = &std::cerr;
+  read_options.keep_unknown = Globals().keep_unknown;
   const auto read_start = std::chrono::steady_clock::now();
   PoseGraph graph = ReadGraph(in, read_options);
   const double read_time =

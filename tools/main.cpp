@@ -10,6 +10,8 @@
 #include <iostream>
 #include <string>
 
+#include <glog/logging.h>
+
 #include "tools/args.h"
 #include "tools/command.h"
 
@@ -32,7 +34,16 @@ void PrintUsage(std::ostream& os) {
   for (const Command& c : commands)
     os << "  " << c.name << std::string(c.name.size() < 12 ? 12 - c.name.size() : 1, ' ')
        << c.summary << "\n";
-  os << "\n'cairn <command> --help' describes a command's options.\n";
+  os << "\n'cairn <command> --help' describes a command's options.\n" << GlobalOptionsHelp();
+}
+
+// Ceres (and cairn) log through glog, which would otherwise put its lines,
+// and a warning about itself, first on stderr, ahead of cairn's own error
+// when a solve fails: they show only with --verbose. Never into log files.
+void InitLogging(const char* argv0, bool verbose) {
+  FLAGS_logtostderr = true;
+  FLAGS_minloglevel = verbose ? google::GLOG_INFO : google::GLOG_FATAL;
+  google::InitGoogleLogging(argv0);
 }
 
 // A solve touches hundreds of megabytes of fresh memory, a page fault per
@@ -71,6 +82,8 @@ void RestartWithHugePages(char** argv) {
 int main(int argc, char** argv) {
   using namespace cairn::tools;
   RestartWithHugePages(argv);
+  TakeGlobalOptions(&argc, argv, &Globals());
+  InitLogging(argv[0], Globals().verbose);
   if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h") ||
       !std::strcmp(argv[1], "help")) {
     PrintUsage(argc < 2 ? std::cerr : std::cout);

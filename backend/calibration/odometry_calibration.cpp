@@ -17,6 +17,7 @@
 
 #include "cairn/solvers/gauss_newton.h"
 #include "cairn/graph/graph_io.h"
+#include "cairn/graph/text_input.h"
 #include "cairn/factors/odometry_calibration.h"
 
 namespace cairn {
@@ -289,10 +290,11 @@ bool ParseDouble(const std::string& token, double* out) {
 
 CalibrationData ReadCalibrationPairs(std::istream& in, const std::string& name) {
   CalibrationData data;
+  TextInput input(in, name);
   std::string line;
   size_t line_no = 0, first_with_info = 0, first_without_info = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
+  while (input.Next(&line)) {
+    line_no = input.line();
     const size_t hash = line.find('#');
     if (hash != std::string::npos) line.erase(hash);
     std::istringstream ss(line);

@@ -40,6 +40,7 @@ class Fields {
 
   const std::string& tag() const { return tokens_[0]; }
   size_t size() const { return tokens_.size() - 1; }
+  size_t line() const { return line_; }
 
   [[noreturn]] void Fail(const std::string& message) const {
     throw ParseError(file_, line_, message);
@@ -71,6 +72,21 @@ class Fields {
       Fail(std::string(what) + " is out of range ('" + s + "')");
     }
     return v;
+  }
+
+  // Field k as an angle in radians, within the sane range.
+  double Angle(size_t k, const char* what) const {
+    const double v = Number(k, what);
+    CheckRange(v, kMaxAbsAngle, what, " rad");
+    return v;
+  }
+
+  void CheckRange(double v, double bound, const char* what, const char* unit) const {
+    if (std::fabs(v) <= bound) return;
+    char buf[128];
+    std::snprintf(buf, sizeof buf, "%s %g%s is out of range (at most %g in magnitude)", what, v,
+                  unit, bound);
+    Fail(buf);
   }
 
   // Field k as a vertex id: a non-negative integer that fits in an int.
@@ -187,7 +203,7 @@ class Reader {
       SetDimension(f, 3);
       f.ExpectCount(7);
       Vector6d v;
-      for (int i = 0; i < 6; ++i) v[i] = f.Number(2 + i, i < 3 ? "a translation" : "an angle");
+      for (int i = 0; i < 6; ++i) v[i] = i < 3 ? f.Number(2 + i, "a translation") : f.Angle(2 + i, "an angle");
       AddVertex(f, ToParams(SE3::FromEulerVector(v)));
     } else if (tag == "EDGE_SE2" || tag == "EDGE2") {
       SetDimension(f, 2);
@@ -200,7 +216,7 @@ class Reader {
         e.information = ToroInformation2D(f, 6);
       }
       CheckInformation(f, e.information, 3);
-      edges_.push_back({e, line_no});
+      AddEdge(f, e);
     } else if (tag == "EDGE_SE3:QUAT") {
       SetDimension(f, 3);
       f.ExpectCount(30);
@@ -209,13 +225,13 @@ class Reader {
       CheckQuaternion(f, &e.z[3]);
       ReadUpperTriangle(f, 10, 6, &e.information);
       CheckInformation(f, e.information, 6);
-      edges_.push_back({e, line_no});
+      AddEdge(f, e);
     } else if (tag == "EDGE3") {
       SetDimension(f, 3);
       f.ExpectCount(29);
       Edge e = Between(f);
       Vector6d v;
-      for (int i = 0; i < 6; ++i) v[i] = f.Number(3 + i, i < 3 ? "a translation" : "an angle");
+      for (int i = 0; i < 6; ++i) v[i] = i < 3 ? f.Number(3 + i, "a translation") : f.Angle(3 + i, "an angle");
       e.z = ToParams(SE3::FromEulerVector(v));
       Matrix6d rpy;
       ReadUpperTriangle(f, 9, 6, &rpy);
@@ -226,7 +242,7 @@ class Reader {
       Vector6d j;
       j << 1, 1, 1, 2, 2, 2;
       e.information = j.asDiagonal() * rpy * j.asDiagonal();
-      edges_.push_back({e, line_no});
+      AddEdge(f, e);
     } else if (tag == "EDGE_PRIOR_SE2") {
       SetDimension(f, 2);
       f.ExpectCount(10);
@@ -234,7 +250,7 @@ class Reader {
       e.z = {f.Number(2, "x"), f.Number(3, "y"), f.Number(4, "theta"), 0, 0, 0, 0};
       ReadUpperTriangle(f, 5, 3, &e.information);
       CheckInformation(f, e.information, 3);
-      edges_.push_back({e, line_no});
+      AddEdge(f, e);
     } else if (tag == "EDGE_SE3_PRIOR") {
       SetDimension(f, 3);
       f.ExpectCount(30);
@@ -249,7 +265,7 @@ class Reader {
       CheckQuaternion(f, &e.z[3]);
       ReadUpperTriangle(f, 10, 6, &e.information);
       CheckInformation(f, e.information, 6);
-      edges_.push_back({e, line_no});
+      AddEdge(f, e);
     } else if (tag == "PARAMS_SE3OFFSET") {
       f.ExpectCount(8);
       double p[7];
@@ -261,10 +277,7 @@ class Reader {
       f.ExpectAtLeast(1);
       for (size_t k = 1; k <= f.size(); ++k) fixed_.push_back({f.Id(k), line_no});
     } else {
-      if (options_.strict) f.Fail("unknown tag '" + tag + "' (--strict refuses unknown tags)");
-      if (warned_.insert(tag).second && options_.warnings)
-        *options_.warnings << name_ << ":" << line_no << ": warning: skipping unknown tag '"
-                           << tag << "' (warned once per tag)\n";
+      Unknown(f, raw);
     }
   }
 
@@ -305,6 +318,7 @@ class Reader {
         throw ParseError(name_, line, "FIX names vertex " + std::to_string(id) + ", which does not exist");
       graph.vertex(id).fixed = true;
     }
+    for (VerbatimLine& l : graph_lines_) graph.AddVerbatimLine(std::move(l));
     if (edges_only) InitializeBySpanningTree(graph);
     return graph;
   }
@@ -321,9 +335,32 @@ class Reader {
   }
 
   void AddVertex(const Fields& f, const PoseParams& x) {
+    CheckPose(f, x, "theta");
     const int64_t id = f.Id(1);
     if (!vertex_ids_.insert(id).second) f.Fail("duplicate vertex id " + std::to_string(id));
     vertices_.push_back(Vertex{id, x, false});
+  }
+
+  void AddEdge(const Fields& f, const Edge& e) {
+    CheckPose(f, e.z, e.IsPrior() ? "theta" : "dtheta");
+    edges_.push_back({e, f.line()});
+  }
+
+  // A pose's translation and (2D) heading within the sane ranges; 3D
+  // rotations are unit quaternions by now, and TORO's angles were checked
+  // as they were read.
+  void CheckPose(const Fields& f, const PoseParams& x, const char* heading) const {
+    for (int i = 0; i < (dimension_ == 2 ? 2 : 3); ++i)
+      f.CheckRange(x[i], kMaxAbsCoordinate, "coordinate", "");
+    if (dimension_ == 2) f.CheckRange(x[2], kMaxAbsAngle, heading, " rad");
+  }
+
+  // Skipping a line would lose what it says (and would hide a damaged
+  // first tag): refuse it, or keep it verbatim when asked to.
+  void Unknown(const Fields& f, const std::string& raw) {
+    if (!options_.keep_unknown)
+      f.Fail("unknown tag '" + f.tag() + "' (--keep-unknown keeps such lines verbatim)");
+    graph_lines_.push_back({vertices_.size(), edges_.size(), raw});
   }
 
   Edge Between(const Fields& f) const {
@@ -351,18 +388,17 @@ class Reader {
   std::deque<PendingEdge> edges_;
   std::vector<std::pair<int64_t, size_t>> fixed_;
   std::map<int64_t, bool> offsets_;  // parameter id -> is identity
-  std::set<std::string> warned_;
+  std::vector<VerbatimLine> graph_lines_;
 };
 
 }  // namespace
 
 PoseGraph ReadGraph(std::istream& in, const std::string& name, const ReadOptions& options) {
   Reader reader(name, options);
+  TextInput input(in, name, options.max_line_bytes);
   std::string line;
-  size_t line_no = 0;
-  while (std::getline(in, line)) reader.Line(line, ++line_no);
-  if (in.bad()) throw ParseError(name, line_no, "read error");
-  return reader.Finish(line_no == 0 ? 1 : line_no);
+  while (input.Next(&line)) reader.Line(line, input.line());
+  return reader.Finish(input.line() == 0 ? 1 : input.line());
 }
 
 PoseGraph ReadGraph(const std::string& path, const ReadOptions& options) {
@@ -393,6 +429,27 @@ void WriteUpperTriangle(std::ostream& out, const Matrix6d& info, int n) {
     }
 }
 
+// Writes the kept lines back where they stood: each before the first
+// vertex or edge that followed it in the file.
+class VerbatimWriter {
+ public:
+  VerbatimWriter(const PoseGraph& graph, std::ostream& out) : lines_(graph.verbatim_lines()), out_(out) {}
+  // The lines that stood before vertex `vertices` and edge `edges`.
+  void Before(size_t vertices, size_t edges) {
+    for (; next_ < lines_.size() && lines_[next_].vertices_before <= vertices &&
+           lines_[next_].edges_before <= edges;
+         ++next_)
+      out_ << lines_[next_].text << '\n';
+  }
+  void Rest() { Before(kAll, kAll); }
+  static constexpr size_t kAll = std::numeric_limits<size_t>::max();
+
+ private:
+  const std::vector<VerbatimLine>& lines_;
+  std::ostream& out_;
+  size_t next_ = 0;
+};
+
 }  // namespace
 
 void WriteG2o(const PoseGraph& graph, std::ostream& out) {
@@ -401,14 +458,19 @@ void WriteG2o(const PoseGraph& graph, std::ostream& out) {
   bool has_se3_prior = false;
   for (const Edge& e : graph.edges()) has_se3_prior |= e.IsPrior() && !planar;
   if (has_se3_prior) out << "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1\n";
+  VerbatimWriter kept(graph, out);
+  size_t vertex_index = 0, edge_index = 0;
   for (const Vertex& v : graph.vertices()) {
+    kept.Before(vertex_index++, 0);
     out << (planar ? "VERTEX_SE2 " : "VERTEX_SE3:QUAT ") << v.id;
     WriteNumbers(out, v.x.data(), np);
     out << '\n';
   }
+  kept.Before(VerbatimWriter::kAll, 0);
   for (const Vertex& v : graph.vertices())
     if (v.fixed) out << "FIX " << v.id << '\n';
   for (const Edge& e : graph.edges()) {
+    kept.Before(VerbatimWriter::kAll, edge_index++);
     if (e.IsPrior()) {
       out << (planar ? "EDGE_PRIOR_SE2 " : "EDGE_SE3_PRIOR ") << e.from;
       if (!planar) out << " 0";
@@ -419,6 +481,7 @@ void WriteG2o(const PoseGraph& graph, std::ostream& out) {
     WriteUpperTriangle(out, e.information, nt);
     out << '\n';
   }
+  kept.Rest();
 }
 
 void WriteG2o(const PoseGraph& graph, const std::string& path) {

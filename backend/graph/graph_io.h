@@ -1,6 +1,8 @@
 // Reading and writing pose-graph files: g2o (VERTEX_SE2, EDGE_SE2,
 // VERTEX_SE3:QUAT, EDGE_SE3:QUAT, EDGE_PRIOR_SE2, EDGE_SE3_PRIOR, FIX) and
 // TORO (VERTEX2, EDGE2, VERTEX3, EDGE3). Errors name the file and line.
+// Every number must be finite, headings and angles within kMaxAbsAngle rad,
+// coordinates within kMaxAbsCoordinate (text_input.h).
 #pragma once
 
 #include <iosfwd>
@@ -8,6 +10,7 @@
 #include <string>
 
 #include "cairn/graph/pose_graph.h"
+#include "cairn/graph/text_input.h"
 
 namespace cairn {
 
@@ -26,10 +29,17 @@ class ParseError : public std::runtime_error {
 };
 
 struct ReadOptions {
-  // Refuse tags cairn does not know instead of skipping them.
+  // A line whose tag cairn does not know is an error ("FILE:LINE: unknown
+  // tag"), since skipping it would lose what it says. With keep_unknown it
+  // is kept verbatim instead (PoseGraph::verbatim_lines) and WriteG2o writes
+  // it back in its place.
+  bool keep_unknown = false;
+  // Refusing unknown tags is now the default; kept for callers that set it.
   bool strict = false;
-  // Where the one-per-tag warnings go; null silences them.
+  // Unused since no line is skipped any more (kept for callers that set it).
   std::ostream* warnings = nullptr;
+  // A longer line is an error, not a buffer without end (text_input.h).
+  size_t max_line_bytes = kDefaultMaxLineBytes;
 };
 
 // Reads a g2o or TORO file (told apart by their tags). A file with edges but

@@ -10,6 +10,7 @@
 #include <string>
 #include <type_traits>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "cairn/graph/geometry.h"
@@ -39,6 +40,16 @@ struct Edge {
   Matrix6d information = Matrix6d::Identity();  // 2D: top-left 3x3, rest zero once added
 
   bool IsPrior() const { return kind == EdgeKind::kPrior; }
+};
+
+// A line of a file kept as it was, not interpreted (a tag cairn does not
+// know, read with ReadOptions::keep_unknown): it stood after the first
+// `vertices_before` vertices and `edges_before` edges, and the g2o writer puts
+// it back there.
+struct VerbatimLine {
+  size_t vertices_before = 0;
+  size_t edges_before = 0;
+  std::string text;
 };
 
 class PoseGraph {
@@ -75,6 +86,10 @@ class PoseGraph {
   size_t CountEdges(EdgeKind kind) const;
   size_t CountFixed() const;
 
+  // Lines carried through unchanged from the file read, in file order.
+  const std::vector<VerbatimLine>& verbatim_lines() const { return verbatim_lines_; }
+  void AddVerbatimLine(VerbatimLine line) { verbatim_lines_.push_back(std::move(line)); }
+
   // The information block that applies to this graph's dimension.
   Eigen::MatrixXd Information(const Edge& e) const;
 
@@ -83,6 +98,7 @@ class PoseGraph {
   std::deque<Vertex> vertices_;
   std::unordered_map<int64_t, size_t> index_;
   std::vector<Edge> edges_;
+  std::vector<VerbatimLine> verbatim_lines_;
 };
 
 SE2 ToSE2(const PoseParams& p);

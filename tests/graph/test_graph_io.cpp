@@ -173,20 +173,17 @@ TEST(ReadG2o, EdgesOnlyGetVerticesFromSpanningTree) {
   EXPECT_NEAR(Chi2(g), 0, 1e-25);
 }
 
-TEST(ReadG2o, UnknownTagsWarnOnceOrFailUnderStrict) {
+TEST(ReadG2o, UnknownTagsFailUnlessKept) {
   const std::string text = std::string(kSE2) + "ROBOTLASER1 1 2 3\nROBOTLASER1 4 5\nFOO\n";
-  std::ostringstream warnings;
+  ExpectError(text, 9, "unknown tag 'ROBOTLASER1'");
   ReadOptions options;
-  options.warnings = &warnings;
-  const PoseGraph g = Parse(text, options);
-  EXPECT_EQ(g.edges().size(), 4u);
-  const std::string w = warnings.str();
-  EXPECT_NE(w.find("test.g2o:9: warning: skipping unknown tag 'ROBOTLASER1'"), std::string::npos)
-      << w;
-  EXPECT_EQ(w.find("test.g2o:10"), std::string::npos) << w;
-  EXPECT_NE(w.find("'FOO'"), std::string::npos) << w;
   options.strict = true;
   ExpectError(text, 9, "unknown tag 'ROBOTLASER1'", options);
+  options.keep_unknown = true;
+  const PoseGraph g = Parse(text, options);
+  EXPECT_EQ(g.edges().size(), 4u);
+  ASSERT_EQ(g.verbatim_lines().size(), 3u);
+  EXPECT_EQ(g.verbatim_lines()[2].text, "FOO");
 }
 
 TEST(ReadG2o, CommentsAndBlankLines) {

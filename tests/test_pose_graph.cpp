@@ -106,7 +106,7 @@ TEST(SpanningTree, ChainsMeasurementsAlongMostCertainEdges) {
   const SE2 p2 = ToSE2(g.vertex(2).x), p3 = ToSE2(g.vertex(3).x);
   EXPECT_NEAR(p2.x(), 1, 1e-12);
   EXPECT_NEAR(p2.y(), 1, 1e-12);
-  EXPECT_NEAR(p2.theta(), M_PI, 1e-12);
+  EXPECT_NEAR(p2.theta(), -M_PI, 1e-12);  // pi, kept as -pi
   // x3 = x2 * z^-1 with z = (0, -1, 0): one metre to x2's left, i.e. (1, 0).
   EXPECT_NEAR(p3.x(), 1, 1e-12);
   EXPECT_NEAR(p3.y(), 0, 1e-12);

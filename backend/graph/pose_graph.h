@@ -16,8 +16,6 @@
 
 namespace cairn {
 
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
-
 enum class EdgeKind { kOdometry, kLoopClosure, kPrior };
 const char* ToString(EdgeKind kind);
 

@@ -12,6 +12,7 @@
 #include <unordered_map>
 
 #include "cairn/graph/chi2.h"
+#include "cairn/graph/runtime.h"
 
 namespace cairn {
 namespace {
@@ -375,7 +376,7 @@ InitReport Initialize(PoseGraph& graph, InitMethod method) {
   }
   InitReport report;
   report.method = method;
-  report.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  report.time_s = Seconds(start);
   report.chi2 = Chi2(graph);
   return report;
 }

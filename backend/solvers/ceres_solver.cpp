@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "cairn/graph/chi2.h"
+#include "cairn/graph/runtime.h"
 #include "cairn/linear/serial_scope.h"
 #include "cairn/solvers/graph_factors.h"
 #include "cholmod.h"
@@ -21,10 +22,6 @@
 
 namespace cairn {
 namespace {
-
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
 
 class TraceCallback : public ceres::IterationCallback {
  public:
@@ -191,11 +188,6 @@ CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_cl
                                  graph.vertex(e.to).x.data());
     }
   }
-}
-
-int ResolveThreads(int requested) {
-  return requested > 0 ? requested
-                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
 ceres::Solver::Options MakeSolverOptions(const PoseGraph& graph, const CeresOptions& options) {

@@ -17,7 +17,7 @@
 #include "cairn/graph/runtime.h"
 #include "cairn/linear/serial_scope.h"
 #include "cairn/solvers/graph_factors.h"
-#include "cholmod.h"
+#include "cairn/linear/cholmod_common.h"
 #include "cairn/factors/pose_manifold.h"
 
 namespace cairn {
@@ -103,8 +103,8 @@ FactorEstimate EstimateFactor(const PoseGraph& graph) {
   }
   FactorEstimate est;
   if (n == 0) return est;
-  cholmod_common cc;
-  cholmod_start(&cc);
+  CholmodCommon holder;
+  cholmod_common& cc = *holder.get();
   cc.nmethods = 1;
   cc.method[0].ordering = CHOLMOD_AMD;
   cc.supernodal = CHOLMOD_SIMPLICIAL;  // the counts are all we want
@@ -130,7 +130,6 @@ FactorEstimate EstimateFactor(const PoseGraph& graph) {
     }
     cholmod_free_sparse(&a, &cc);
   }
-  cholmod_finish(&cc);
   return est;
 }
 

@@ -20,7 +20,7 @@
 #include <sstream>
 #include <vector>
 
-#include "cairn/graph/initialization.h"
+#include "cairn/graph/pose_graph.h"
 
 namespace cairn {
 
@@ -305,7 +305,7 @@ class Reader {
         throw ParseError(name_, line, "FIX names vertex " + std::to_string(id) + ", which does not exist");
       graph.vertex(id).fixed = true;
     }
-    if (edges_only) InitializeBySpanningTree(graph);
+    if (edges_only) ChainAlongSpanningTree(graph);
     return graph;
   }
 

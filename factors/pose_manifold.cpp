@@ -34,25 +34,6 @@ struct SE2Plus {
   }
 };
 
-// Exp of a rotation vector, smooth through zero for Jets (no sqrt of 0).
-template <typename T>
-Eigen::Quaternion<T> Exp(const T* w) {
-  using std::cos;
-  using std::sin;
-  using std::sqrt;
-  const T theta_sq = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-  T k, c;
-  if (theta_sq > T(1e-16)) {
-    const T theta = sqrt(theta_sq);
-    k = sin(T(0.5) * theta) / theta;
-    c = cos(T(0.5) * theta);
-  } else {
-    k = T(0.5) - theta_sq / T(48.0);
-    c = T(1.0) - theta_sq / T(8.0);
-  }
-  return Eigen::Quaternion<T>(c, k * w[0], k * w[1], k * w[2]);
-}
-
 struct SE3Plus {
   template <typename T>
   bool Plus(const T* x, const T* d, T* out) const {
@@ -62,27 +43,19 @@ struct SE3Plus {
     Eigen::Map<Vec3> out_t(out);
     out_t = t + q * dt;
     Eigen::Map<Eigen::Quaternion<T>> out_q(out + 3);
-    out_q = q * Exp(d + 3);
+    out_q = q * QuaternionExp(d + 3);
     return true;
   }
   template <typename T>
   bool Minus(const T* y, const T* x, T* out) const {
-    using std::atan2;
-    using std::sqrt;
     using Vec3 = Eigen::Matrix<T, 3, 1>;
     const Eigen::Map<const Vec3> tx(x), ty(y);
     const Eigen::Map<const Eigen::Quaternion<T>> qx(x + 3), qy(y + 3);
     const Eigen::Quaternion<T> qx_inv = qx.conjugate();
     Eigen::Map<Vec3> out_t(out);
     out_t = qx_inv * (ty - tx);
-    Eigen::Quaternion<T> dq = qx_inv * qy;
-    if (dq.w() < T(0)) dq.coeffs() = -dq.coeffs();
-    const T s_sq = dq.vec().squaredNorm();
-    // 2 atan2(|v|, w) / |v| tends to 2 / w as |v| -> 0.
-    const T k = s_sq > T(1e-24) ? T(2.0) * atan2(sqrt(s_sq), dq.w()) / sqrt(s_sq)
-                                : T(2.0) / dq.w();
     Eigen::Map<Vec3> out_w(out + 3);
-    out_w = k * dq.vec();
+    out_w = QuaternionLog(Eigen::Quaternion<T>(qx_inv * qy));
     return true;
   }
 };

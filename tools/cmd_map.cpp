@@ -9,7 +9,7 @@
 #include "cairn/graph/output_files.h"
 #include "cairn/frontend/carmen_log.h"
 #include "cairn/frontend/mapper.h"
-#include "cairn/frontend/svg.h"
+#include "cairn/graph/svg_plot.h"
 #include "cairn/frontend/trajectory.h"
 #include "tools/args.h"
 #include "tools/command.h"
@@ -112,8 +112,8 @@ int RunMap(int argc, char** argv) {
   }
   frontend::WriteTum(traj, prefix + "_trajectory.tum");
   WriteFileAtomically(prefix + "_trajectory.svg", [&](std::ostream& o) {
-    o << frontend::TrajectorySvg({{"dead reckoning", "#d62728", res.dead_reckoning},
-                                  {"optimised keyframes", "#1f77b4", kf_poses}});
+    WriteSvgPlot(o, {TrajectoryPanel({{"dead reckoning", "#d62728", res.dead_reckoning},
+                                      {"optimised keyframes", "#1f77b4", kf_poses}})});
   });
   if (!graph_path.empty()) WriteG2o(res.graph, graph_path);
   const double t_write = Since(t);

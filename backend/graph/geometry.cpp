@@ -2,13 +2,20 @@
 
 #include <cmath>
 
+#include "cairn/factors/pose_math.h"
+
 namespace cairn {
 
 double NormalizeAngle(double a) {
-  if (a > -M_PI && a <= M_PI) return a;
+  // factors::WrapAngle's convention. Out of range the arithmetic stays
+  // fmod's rather than WrapAngle's floor: a file without vertices is placed
+  // by composing SE2s, and every result on such a file (manhattan) depends
+  // on those placements to the last bit.
+  if (a >= -M_PI && a < M_PI) return a;
   double r = std::fmod(a + M_PI, 2.0 * M_PI);
-  if (r <= 0) r += 2.0 * M_PI;
-  return r - M_PI;
+  if (r < 0) r += 2.0 * M_PI;
+  r -= M_PI;
+  return r < M_PI ? r : -M_PI;  // r + 2 pi may round up to 2 pi
 }
 
 SE2::SE2(double x, double y, double theta) : x_(x), y_(y), theta_(NormalizeAngle(theta)) {}
@@ -76,20 +83,46 @@ SE3 SE3::BoxPlus(const Vector6d& delta) const {
 }
 
 Eigen::Quaterniond QuaternionExp(const Eigen::Vector3d& w) {
-  const double theta = w.norm();
-  const double half = 0.5 * theta;
-  // sin(x/2)/x by its series below 1e-8: no division by a tiny angle.
-  const double k = theta < 1e-8 ? 0.5 - theta * theta / 48.0 : std::sin(half) / theta;
-  return Eigen::Quaterniond(std::cos(half), k * w.x(), k * w.y(), k * w.z());
+  return factors::QuaternionExp(w.data());
 }
 
-Eigen::Vector3d QuaternionLog(const Eigen::Quaterniond& q_in) {
-  Eigen::Quaterniond q = q_in.normalized();
-  if (q.w() < 0) q.coeffs() = -q.coeffs();
-  const Eigen::Vector3d v = q.vec();
-  const double s = v.norm();
-  if (s < 1e-12) return 2.0 * v;
-  return 2.0 * std::atan2(s, q.w()) / s * v;
+Eigen::Vector3d QuaternionLog(const Eigen::Quaterniond& q) {
+  return factors::QuaternionLog(q.normalized());
+}
+
+SE2 ExpMap(const Eigen::Vector3d& d) { return SE2::FromVector(d); }
+
+SE3 ExpMap(const Vector6d& d) {
+  const Eigen::Vector3d w = d.tail<3>();
+  return SE3(QuaternionExp(w), d.head<3>());
+}
+
+Eigen::Vector3d LogMap(const SE2& p) { return p.ToVector(); }
+
+Vector6d LogMap(const SE3& p) {
+  Vector6d v;
+  v << p.translation(), QuaternionLog(p.rotation());
+  return v;
+}
+
+Eigen::Matrix3d InverseAdjoint(const SE2& s) {
+  Eigen::Matrix3d a = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix2d rt = s.rotation().transpose();
+  a.topLeftCorner<2, 2>() = rt;
+  a.topRightCorner<2, 1>() = rt * Eigen::Vector2d(-s.y(), s.x());  // R^T J t
+  return a;
+}
+
+Matrix6d InverseAdjoint(const SE3& s) {
+  const Eigen::Matrix3d rt = s.rotation().toRotationMatrix().transpose();
+  const Eigen::Vector3d t = s.translation();
+  Eigen::Matrix3d tx;
+  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+  Matrix6d a = Matrix6d::Zero();
+  a.topLeftCorner<3, 3>() = rt;
+  a.topRightCorner<3, 3>() = -rt * tx;
+  a.bottomRightCorner<3, 3>() = rt;
+  return a;
 }
 
 }  // namespace cairn

@@ -1,5 +1,6 @@
 // Rigid-body poses in the plane (SE2) and in space (SE3), with the vector
-// forms g2o files use and the box-plus both solvers step with.
+// forms g2o files use, the box-plus both solvers step with, and its exponential,
+// logarithm and adjoint. The templated maths underneath is factors/pose_math.h.
 #pragma once
 
 #include <Eigen/Core>
@@ -9,11 +10,13 @@ namespace cairn {
 
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Vector7d = Eigen::Matrix<double, 7, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
-// Wraps an angle into (-pi, pi], as g2o's SE2 keeps its rotation.
+// Wraps an angle into [-pi, pi), g2o's normalize_theta: the convention of
+// factors::WrapAngle, which the factors and manifolds use, here for SE2.
 double NormalizeAngle(double a);
 
-// A planar pose: translation (x, y) and heading theta, kept in (-pi, pi].
+// A planar pose: translation (x, y) and heading theta, kept in [-pi, pi).
 class SE2 {
  public:
   SE2() = default;
@@ -72,5 +75,23 @@ class SE3 {
 Eigen::Quaterniond QuaternionExp(const Eigen::Vector3d& w);
 // Rotation vector of a unit quaternion, with the angle in [0, pi].
 Eigen::Vector3d QuaternionLog(const Eigen::Quaterniond& q);
+
+// The chart of the box-plus, X.BoxPlus(d) = X * ExpMap(d) (to rounding), in
+// tangent coordinates (t, w): SE2's d is its own vector (dx, dy, dtheta),
+// SE3's is (dt, dw) with dw a rotation vector. LogMap inverts ExpMap (angles
+// wrapped, rotation angles in [0, pi]). Not the group's exponential: the
+// translation is not coupled to the rotation, exactly as both solvers step.
+SE2 ExpMap(const Eigen::Vector3d& d);
+SE3 ExpMap(const Vector6d& d);
+Eigen::Vector3d LogMap(const SE2& p);
+Vector6d LogMap(const SE3& p);
+
+// The adjoint of s^-1 in that chart, to first order: it carries a
+// perturbation on the right of X past s,
+//   X ExpMap(d) s = X s ExpMap(InverseAdjoint(s) d).
+// InverseAdjoint(s.Inverse()) is Ad(s), which maps a covariance of s^-1 to
+// one of s.
+Eigen::Matrix3d InverseAdjoint(const SE2& s);
+Matrix6d InverseAdjoint(const SE3& s);
 
 }  // namespace cairn

@@ -20,7 +20,7 @@
 #include <sstream>
 #include <vector>
 
-#include "cairn/graph/initialization.h"
+#include "cairn/graph/pose_graph.h"
 
 namespace cairn {
 
@@ -187,98 +187,9 @@ class Reader {
     auto tokens = Tokenize(line);
     if (tokens.empty()) return;
     Fields f(std::move(tokens), name_, line_no);
-    const std::string& tag = f.tag();
-    if (tag == "VERTEX_SE2" || tag == "VERTEX2") {
-      SetDimension(f, 2);
-      f.ExpectCount(4);
-      AddVertex(f, {f.Number(2, "x"), f.Number(3, "y"), f.Number(4, "theta"), 0, 0, 0, 0});
-    } else if (tag == "VERTEX_SE3:QUAT") {
-      SetDimension(f, 3);
-      f.ExpectCount(8);
-      PoseParams p{};
-      for (int i = 0; i < 7; ++i) p[i] = f.Number(2 + i, i < 3 ? "a translation" : "a quaternion");
-      CheckQuaternion(f, &p[3]);
-      AddVertex(f, p);
-    } else if (tag == "VERTEX3") {
-      SetDimension(f, 3);
-      f.ExpectCount(7);
-      Vector6d v;
-      for (int i = 0; i < 6; ++i) v[i] = i < 3 ? f.Number(2 + i, "a translation") : f.Angle(2 + i, "an angle");
-      AddVertex(f, ToParams(SE3::FromEulerVector(v)));
-    } else if (tag == "EDGE_SE2" || tag == "EDGE2") {
-      SetDimension(f, 2);
-      f.ExpectCount(11);
-      Edge e = Between(f);
-      e.z = {f.Number(3, "dx"), f.Number(4, "dy"), f.Number(5, "dtheta"), 0, 0, 0, 0};
-      if (tag == "EDGE_SE2") {
-        ReadUpperTriangle(f, 6, 3, &e.information);
-      } else {
-        e.information = ToroInformation2D(f, 6);
-      }
-      CheckInformation(f, e.information, 3);
-      AddEdge(f, e);
-    } else if (tag == "EDGE_SE3:QUAT") {
-      SetDimension(f, 3);
-      f.ExpectCount(30);
-      Edge e = Between(f);
-      for (int i = 0; i < 7; ++i) e.z[i] = f.Number(3 + i, i < 3 ? "a translation" : "a quaternion");
-      CheckQuaternion(f, &e.z[3]);
-      ReadUpperTriangle(f, 10, 6, &e.information);
-      CheckInformation(f, e.information, 6);
-      AddEdge(f, e);
-    } else if (tag == "EDGE3") {
-      SetDimension(f, 3);
-      f.ExpectCount(29);
-      Edge e = Between(f);
-      Vector6d v;
-      for (int i = 0; i < 6; ++i) v[i] = i < 3 ? f.Number(3 + i, "a translation") : f.Angle(3 + i, "an angle");
-      e.z = ToParams(SE3::FromEulerVector(v));
-      Matrix6d rpy;
-      ReadUpperTriangle(f, 9, 6, &rpy);
-      CheckInformation(f, rpy, 6);
-      // TORO weighs small roll-pitch-yaw errors; g2o's rotation error is the
-      // quaternion's vector part, about half the angles: Omega_q = J^T Omega J
-      // with J = diag(I, 2I).
-      Vector6d j;
-      j << 1, 1, 1, 2, 2, 2;
-      e.information = j.asDiagonal() * rpy * j.asDiagonal();
-      AddEdge(f, e);
-    } else if (tag == "EDGE_PRIOR_SE2") {
-      SetDimension(f, 2);
-      f.ExpectCount(10);
-      Edge e = Prior(f);
-      e.z = {f.Number(2, "x"), f.Number(3, "y"), f.Number(4, "theta"), 0, 0, 0, 0};
-      ReadUpperTriangle(f, 5, 3, &e.information);
-      CheckInformation(f, e.information, 3);
-      AddEdge(f, e);
-    } else if (tag == "EDGE_SE3_PRIOR") {
-      SetDimension(f, 3);
-      f.ExpectCount(30);
-      Edge e = Prior(f);
-      const int64_t param = f.Id(2);
-      auto it = offsets_.find(param);
-      if (it == offsets_.end())
-        f.Fail("EDGE_SE3_PRIOR names parameter " + std::to_string(param) +
-               ", which no PARAMS_SE3OFFSET line defines");
-      if (!it->second) f.Fail("EDGE_SE3_PRIOR with a non-identity sensor offset is not supported");
-      for (int i = 0; i < 7; ++i) e.z[i] = f.Number(3 + i, i < 3 ? "a translation" : "a quaternion");
-      CheckQuaternion(f, &e.z[3]);
-      ReadUpperTriangle(f, 10, 6, &e.information);
-      CheckInformation(f, e.information, 6);
-      AddEdge(f, e);
-    } else if (tag == "PARAMS_SE3OFFSET") {
-      f.ExpectCount(8);
-      double p[7];
-      for (int i = 0; i < 7; ++i) p[i] = f.Number(2 + i, "an offset");
-      CheckQuaternion(f, &p[3]);
-      const bool identity = p[0] == 0 && p[1] == 0 && p[2] == 0 && std::fabs(p[6]) == 1.0;
-      offsets_[f.Id(1)] = identity;
-    } else if (tag == "FIX") {
-      f.ExpectAtLeast(1);
-      for (size_t k = 1; k <= f.size(); ++k) fixed_.push_back({f.Id(k), line_no});
-    } else {
-      Unknown(f, raw);
-    }
+    if (ReadVertex(f) || ReadBetween(f) || ReadPrior(f) || ReadOther(f))
+      return;
+    Unknown(f, raw);
   }
 
   PoseGraph Finish(size_t lines) {
@@ -319,11 +230,141 @@ class Reader {
       graph.vertex(id).fixed = true;
     }
     for (VerbatimLine& l : graph_lines_) graph.AddVerbatimLine(std::move(l));
-    if (edges_only) InitializeBySpanningTree(graph);
+    if (edges_only) ChainAlongSpanningTree(graph);
     return graph;
   }
 
  private:
+  // Each Read* takes the line when its tag is one of its family's, and says
+  // whether it did.
+
+  // VERTEX_SE2 (TORO's VERTEX2), VERTEX_SE3:QUAT, TORO's VERTEX3.
+  bool ReadVertex(const Fields& f) {
+    const std::string& tag = f.tag();
+    if (tag == "VERTEX_SE2" || tag == "VERTEX2") {
+      SetDimension(f, 2);
+      f.ExpectCount(4);
+      AddVertex(f, {f.Number(2, "x"), f.Number(3, "y"), f.Number(4, "theta"), 0, 0, 0, 0});
+    } else if (tag == "VERTEX_SE3:QUAT") {
+      SetDimension(f, 3);
+      f.ExpectCount(8);
+      PoseParams p{};
+      for (int i = 0; i < 7; ++i) p[i] = f.Number(2 + i, i < 3 ? "a translation" : "a quaternion");
+      CheckQuaternion(f, &p[3]);
+      AddVertex(f, p);
+    } else if (tag == "VERTEX3") {
+      SetDimension(f, 3);
+      f.ExpectCount(7);
+      Vector6d v;
+      for (int i = 0; i < 6; ++i) v[i] = i < 3 ? f.Number(2 + i, "a translation") : f.Angle(2 + i, "an angle");
+      AddVertex(f, ToParams(SE3::FromEulerVector(v)));
+    } else {
+      return false;
+    }
+    return true;
+  }
+
+  // EDGE_SE2 (TORO's EDGE2), EDGE_SE3:QUAT, TORO's EDGE3.
+  bool ReadBetween(const Fields& f) {
+    const std::string& tag = f.tag();
+    Edge e;
+    if (tag == "EDGE_SE2" || tag == "EDGE2") {
+      SetDimension(f, 2);
+      f.ExpectCount(11);
+      e = Between(f);
+      e.z = {f.Number(3, "dx"), f.Number(4, "dy"), f.Number(5, "dtheta"), 0, 0, 0, 0};
+      if (tag == "EDGE_SE2") {
+        ReadUpperTriangle(f, 6, 3, &e.information);
+      } else {
+        e.information = ToroInformation2D(f, 6);
+      }
+      CheckInformation(f, e.information, 3);
+    } else if (tag == "EDGE_SE3:QUAT") {
+      SetDimension(f, 3);
+      f.ExpectCount(30);
+      e = Between(f);
+      for (int i = 0; i < 7; ++i) e.z[i] = f.Number(3 + i, i < 3 ? "a translation" : "a quaternion");
+      CheckQuaternion(f, &e.z[3]);
+      ReadUpperTriangle(f, 10, 6, &e.information);
+      CheckInformation(f, e.information, 6);
+    } else if (tag == "EDGE3") {
+      SetDimension(f, 3);
+      f.ExpectCount(29);
+      e = Between(f);
+      ReadToroEdge3D(f, &e);
+    } else {
+      return false;
+    }
+    AddEdge(f, e);
+    return true;
+  }
+
+  // EDGE3's measurement and information, its angles and weights turned into g2o's.
+  static void ReadToroEdge3D(const Fields& f, Edge* e) {
+    Vector6d v;
+    for (int i = 0; i < 6; ++i) v[i] = i < 3 ? f.Number(3 + i, "a translation") : f.Angle(3 + i, "an angle");
+    e->z = ToParams(SE3::FromEulerVector(v));
+    Matrix6d rpy;
+    ReadUpperTriangle(f, 9, 6, &rpy);
+    CheckInformation(f, rpy, 6);
+    // TORO weighs small roll-pitch-yaw errors; g2o's rotation error is the
+    // quaternion's vector part, about half the angles: Omega_q = J^T Omega J
+    // with J = diag(I, 2I).
+    Vector6d j;
+    j << 1, 1, 1, 2, 2, 2;
+    e->information = j.asDiagonal() * rpy * j.asDiagonal();
+  }
+
+  // EDGE_PRIOR_SE2, EDGE_SE3_PRIOR (through an identity PARAMS_SE3OFFSET only).
+  bool ReadPrior(const Fields& f) {
+    const std::string& tag = f.tag();
+    Edge e;
+    if (tag == "EDGE_PRIOR_SE2") {
+      SetDimension(f, 2);
+      f.ExpectCount(10);
+      e = Prior(f);
+      e.z = {f.Number(2, "x"), f.Number(3, "y"), f.Number(4, "theta"), 0, 0, 0, 0};
+      ReadUpperTriangle(f, 5, 3, &e.information);
+      CheckInformation(f, e.information, 3);
+    } else if (tag == "EDGE_SE3_PRIOR") {
+      SetDimension(f, 3);
+      f.ExpectCount(30);
+      e = Prior(f);
+      const int64_t param = f.Id(2);
+      auto it = offsets_.find(param);
+      if (it == offsets_.end())
+        f.Fail("EDGE_SE3_PRIOR names parameter " + std::to_string(param) +
+               ", which no PARAMS_SE3OFFSET line defines");
+      if (!it->second) f.Fail("EDGE_SE3_PRIOR with a non-identity sensor offset is not supported");
+      for (int i = 0; i < 7; ++i) e.z[i] = f.Number(3 + i, i < 3 ? "a translation" : "a quaternion");
+      CheckQuaternion(f, &e.z[3]);
+      ReadUpperTriangle(f, 10, 6, &e.information);
+      CheckInformation(f, e.information, 6);
+    } else {
+      return false;
+    }
+    AddEdge(f, e);
+    return true;
+  }
+
+  // PARAMS_SE3OFFSET and FIX.
+  bool ReadOther(const Fields& f) {
+    if (f.tag() == "PARAMS_SE3OFFSET") {
+      f.ExpectCount(8);
+      double p[7];
+      for (int i = 0; i < 7; ++i) p[i] = f.Number(2 + i, "an offset");
+      CheckQuaternion(f, &p[3]);
+      const bool identity = p[0] == 0 && p[1] == 0 && p[2] == 0 && std::fabs(p[6]) == 1.0;
+      offsets_[f.Id(1)] = identity;
+    } else if (f.tag() == "FIX") {
+      f.ExpectAtLeast(1);
+      for (size_t k = 1; k <= f.size(); ++k) fixed_.push_back({f.Id(k), f.line()});
+    } else {
+      return false;
+    }
+    return true;
+  }
+
   void SetDimension(const Fields& f, int dim) {
     if (dimension_ == 0) {
       dimension_ = dim;

@@ -7,118 +7,10 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
-#include <numeric>
-#include <queue>
-#include <unordered_map>
+#include <vector>
 
 #include "cairn/graph/chi2.h"
-
-namespace cairn {
-namespace {
-
-// Adjacency by vertex index: (edge index, neighbour index) pairs.
-std::vector<std::vector<std::pair<size_t, size_t>>> Adjacency(const PoseGraph& graph) {
-  std::vector<std::vector<std::pair<size_t, size_t>>> adj(graph.vertices().size());
-  const auto& edges = graph.edges();
-  for (size_t k = 0; k < edges.size(); ++k) {
-    if (edges[k].IsPrior()) continue;
-    const size_t a = graph.VertexIndex(edges[k].from), b = graph.VertexIndex(edges[k].to);
-    adj[a].emplace_back(k, b);
-    adj[b].emplace_back(k, a);
-  }
-  return adj;
-}
-
-// Pose of `to_index` from the pose of the other end of edge `e`.
-PoseParams Propagate(const PoseGraph& graph, const Edge& e, const PoseParams& from_pose,
-                     bool forward) {
-  if (graph.dimension() == 2) {
-    const SE2 z = ToSE2(e.z);
-    return ToParams(ToSE2(from_pose) * (forward ? z : z.Inverse()));
-  }
-  const SE3 z = ToSE3(e.z);
-  return ToParams(ToSE3(from_pose) * (forward ? z : z.Inverse()));
-}
-
-}  // namespace
-
-void InitializeBySpanningTree(PoseGraph& graph) {
-  auto& vertices = graph.vertices();
-  const size_t n = vertices.size();
-  const auto adj = Adjacency(graph);
-  const int dim = graph.TangentSize();
-  std::vector<double> certainty(graph.edges().size());
-  for (size_t k = 0; k < graph.edges().size(); ++k)
-    certainty[k] = graph.edges()[k].information.topLeftCorner(dim, dim).trace();
-
-  // Roots first: fixed vertices, then the rest by id.
-  std::vector<size_t> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    if (vertices[a].fixed != vertices[b].fixed) return vertices[a].fixed;
-    return vertices[a].id < vertices[b].id;
-  });
-
-  std::vector<bool> done(n, false);
-  // Prim's algorithm on a max-heap of (certainty, edge, vertex reached).
-  using Item = std::tuple<double, size_t, size_t>;
-  for (size_t root : order) {
-    if (done[root]) continue;
-    done[root] = true;
-    std::priority_queue<Item> heap;
-    auto push_from = [&](size_t v) {
-      for (const auto& [k, w] : adj[v])
-        if (!done[w]) heap.emplace(certainty[k], k, w);
-    };
-    push_from(root);
-    while (!heap.empty()) {
-      const auto [c, k, w] = heap.top();
-      heap.pop();
-      if (done[w]) continue;
-      const Edge& e = graph.edges()[k];
-      const bool forward = graph.VertexIndex(e.to) == w;
-      const size_t from = forward ? graph.VertexIndex(e.from) : graph.VertexIndex(e.to);
-      if (!vertices[w].fixed) vertices[w].x = Propagate(graph, e, vertices[from].x, forward);
-      done[w] = true;
-      push_from(w);
-    }
-  }
-}
-
-std::vector<std::vector<int64_t>> ConnectedComponents(const PoseGraph& graph) {
-  const size_t n = graph.vertices().size();
-  std::vector<size_t> parent(n);
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](size_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  for (const Edge& e : graph.edges()) {
-    if (e.IsPrior()) continue;
-    const size_t a = find(graph.VertexIndex(e.from)), b = find(graph.VertexIndex(e.to));
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-  std::unordered_map<size_t, size_t> slot;
-  std::vector<std::vector<int64_t>> components;
-  for (size_t i = 0; i < n; ++i) {
-    const size_t r = find(i);
-    auto it = slot.find(r);
-    if (it == slot.end()) {
-      it = slot.emplace(r, components.size()).first;
-      components.emplace_back();
-    }
-    components[it->second].push_back(graph.vertices()[i].id);
-  }
-  for (auto& c : components) std::sort(c.begin(), c.end());
-  std::sort(components.begin(), components.end(),
-            [](const auto& a, const auto& b) { return a.front() < b.front(); });
-  return components;
-}
-
-}  // namespace cairn
-
-// ---------------------------------------------------------------------------
-// Odometry chaining and the chordal relaxation.
+#include "cairn/graph/runtime.h"
 
 namespace cairn {
 namespace {
@@ -216,7 +108,86 @@ Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& m) {
   return svd.matrixU() * d * svd.matrixV().transpose();
 }
 
+// The chordal relaxation's first stage: R_j = R_i Z over unconstrained
+// matrices, i.e. for the transposed rows a = R^T, a_j = Z^T a_i: residual
+// a_j - Z^T a_i, all d columns at once. Returns each free vertex's solved
+// R^T (not yet a rotation); anchored ones keep `rot`.
+std::vector<Block> RelaxedRotations(const PoseGraph& graph, const std::vector<bool>& anchored,
+                                    const std::vector<Block>& rot) {
+  const size_t n = anchored.size();
+  const bool planar = graph.dimension() == 2;
+  const int d = planar ? 2 : 3;
+  BlockSystem rs(anchored, d, d);
+  rs.Reserve(graph.edges().size());
+  std::vector<Block> known(n);
+  for (size_t i = 0; i < n; ++i) known[i] = rot[i].transpose();
+  const Block identity = Block::Identity(d, d);
+  for (const Edge& e : graph.edges()) {
+    if (e.IsPrior()) continue;
+    const size_t i = graph.VertexIndex(e.from), j = graph.VertexIndex(e.to);
+    Block z;
+    double w;
+    if (planar) {
+      z = ToSE2(e.z).rotation();
+      w = e.information(2, 2);
+    } else {
+      z = ToSE3(e.z).rotation().toRotationMatrix();
+      w = e.information.bottomRightCorner<3, 3>().trace() / 3.0;
+    }
+    rs.AddResidual(i, -z.transpose(), j, identity, Block::Zero(d, d), w * identity, known);
+  }
+  return rs.Solve();
+}
+
+// The second stage: each free vertex's relaxed matrix back onto a rotation,
+// by SVD in 3D, by normalising (cos, sin) in 2D.
+void ProjectOntoRotations(const std::vector<Block>& relaxed, const std::vector<bool>& anchored,
+                          bool planar, std::vector<Block>* rot) {
+  for (size_t i = 0; i < anchored.size(); ++i) {
+    if (anchored[i]) continue;
+    const Block r = relaxed[i].transpose();
+    if (planar) {
+      const double theta = std::atan2(r(1, 0) - r(0, 1), r(0, 0) + r(1, 1));
+      (*rot)[i] = SE2(0, 0, theta).rotation();
+    } else {
+      (*rot)[i] = NearestRotation(r);
+    }
+  }
+}
+
+// The last stage, translations with the rotations fixed: r = t_j - t_i -
+// R_i t_z, weighed by (R_i R_z) Omega_t (R_i R_z)^T, the translation error's
+// information. Free vertices' translations are replaced.
+void SolveTranslations(const PoseGraph& graph, const std::vector<bool>& anchored,
+                       const std::vector<Block>& rot, std::vector<Block>* trans) {
+  const bool planar = graph.dimension() == 2;
+  const int d = planar ? 2 : 3;
+  BlockSystem ts(anchored, d, 1);
+  ts.Reserve(graph.edges().size());
+  const Block identity = Block::Identity(d, d);
+  for (const Edge& e : graph.edges()) {
+    if (e.IsPrior()) continue;
+    const size_t i = graph.VertexIndex(e.from), j = graph.VertexIndex(e.to);
+    Block rz, tz;
+    if (planar) {
+      rz = ToSE2(e.z).rotation();
+      tz = ToSE2(e.z).translation();
+    } else {
+      rz = ToSE3(e.z).rotation().toRotationMatrix();
+      tz = ToSE3(e.z).translation();
+    }
+    const Block q = rot[i] * rz;
+    const Block w = q * e.information.topLeftCorner(d, d) * q.transpose();
+    ts.AddResidual(i, -identity, j, identity, rot[i] * tz, w, *trans);
+  }
+  const auto solved = ts.Solve();
+  for (size_t i = 0; i < anchored.size(); ++i)
+    if (!anchored[i]) (*trans)[i] = solved[i];
+}
+
 }  // namespace
+
+void InitializeBySpanningTree(PoseGraph& graph) { ChainAlongSpanningTree(graph); }
 
 void InitializeByOdometry(PoseGraph& graph) {
   auto& vertices = graph.vertices();
@@ -243,7 +214,7 @@ void InitializeByOdometry(PoseGraph& graph) {
         const size_t w = graph.VertexIndex(forward ? e.to : e.from);
         if (done[w]) continue;
         done[w] = true;
-        if (!vertices[w].fixed) vertices[w].x = Propagate(graph, e, vertices[v].x, forward);
+        if (!vertices[w].fixed) vertices[w].x = ChainMeasurement(graph, e, vertices[v].x, forward);
         stack.push_back(w);
       }
     }
@@ -254,7 +225,6 @@ void InitializeChordal(PoseGraph& graph) {
   auto& vertices = graph.vertices();
   const size_t n = vertices.size();
   const bool planar = graph.dimension() == 2;
-  const int d = planar ? 2 : 3;
   const std::vector<bool> root = ComponentRoots(graph);
   std::vector<bool> anchored(n);
   for (size_t i = 0; i < n; ++i) anchored[i] = root[i] || vertices[i].fixed;
@@ -273,67 +243,8 @@ void InitializeChordal(PoseGraph& graph) {
     }
   }
 
-  // Rotations: R_j = R_i Z, i.e. for the transposed rows a = R^T,
-  // a_j = Z^T a_i: residual a_j - Z^T a_i, all d columns at once.
-  {
-    BlockSystem rs(anchored, d, d);
-    rs.Reserve(graph.edges().size());
-    std::vector<Block> known(n);
-    for (size_t i = 0; i < n; ++i) known[i] = rot[i].transpose();
-    const Block identity = Block::Identity(d, d);
-    for (const Edge& e : graph.edges()) {
-      if (e.IsPrior()) continue;
-      const size_t i = graph.VertexIndex(e.from), j = graph.VertexIndex(e.to);
-      Block z;
-      double w;
-      if (planar) {
-        z = ToSE2(e.z).rotation();
-        w = e.information(2, 2);
-      } else {
-        z = ToSE3(e.z).rotation().toRotationMatrix();
-        w = e.information.bottomRightCorner<3, 3>().trace() / 3.0;
-      }
-      rs.AddResidual(i, -z.transpose(), j, identity, Block::Zero(d, d),
-                     w * identity, known);
-    }
-    const auto solved = rs.Solve();
-    for (size_t i = 0; i < n; ++i) {
-      if (anchored[i]) continue;
-      const Block r = solved[i].transpose();
-      if (planar) {
-        const double theta = std::atan2(r(1, 0) - r(0, 1), r(0, 0) + r(1, 1));
-        rot[i] = SE2(0, 0, theta).rotation();
-      } else {
-        rot[i] = NearestRotation(r);
-      }
-    }
-  }
-
-  // Translations with the rotations fixed: r = t_j - t_i - R_i t_z, weighed
-  // by (R_i R_z) Omega_t (R_i R_z)^T, the translation error's information.
-  {
-    BlockSystem ts(anchored, d, 1);
-    ts.Reserve(graph.edges().size());
-    const Block identity = Block::Identity(d, d);
-    for (const Edge& e : graph.edges()) {
-      if (e.IsPrior()) continue;
-      const size_t i = graph.VertexIndex(e.from), j = graph.VertexIndex(e.to);
-      Block rz, tz;
-      if (planar) {
-        rz = ToSE2(e.z).rotation();
-        tz = ToSE2(e.z).translation();
-      } else {
-        rz = ToSE3(e.z).rotation().toRotationMatrix();
-        tz = ToSE3(e.z).translation();
-      }
-      const Block q = rot[i] * rz;
-      const Block w = q * e.information.topLeftCorner(d, d) * q.transpose();
-      ts.AddResidual(i, -identity, j, identity, rot[i] * tz, w, trans);
-    }
-    const auto solved = ts.Solve();
-    for (size_t i = 0; i < n; ++i)
-      if (!anchored[i]) trans[i] = solved[i];
-  }
+  ProjectOntoRotations(RelaxedRotations(graph, anchored, rot), anchored, planar, &rot);
+  SolveTranslations(graph, anchored, rot, &trans);
 
   for (size_t i = 0; i < n; ++i) {
     if (anchored[i]) continue;
@@ -375,7 +286,7 @@ InitReport Initialize(PoseGraph& graph, InitMethod method) {
   }
   InitReport report;
   report.method = method;
-  report.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  report.time_s = Seconds(start);
   report.chi2 = Chi2(graph);
   return report;
 }

@@ -1,5 +1,6 @@
 // Initial estimates built from the edges alone, for graphs whose vertices
-// carry no (or no useful) estimate, and the graph's connected components.
+// carry no (or no useful) estimate. (The graph's connected components and
+// the spanning-tree chaining itself are the graph model's: pose_graph.h.)
 #pragma once
 
 #include <cstdint>
@@ -11,9 +12,8 @@
 namespace cairn {
 
 // Sets every vertex's estimate by chaining measurements outward along a
-// spanning tree that prefers the most certain edges (largest information
-// trace). Each component starts at its fixed vertex if it has one, else at
-// its lowest id, which keeps its current pose. Priors are not followed.
+// spanning tree that prefers the most certain edges: ChainAlongSpanningTree
+// (pose_graph.h), as an initialiser.
 void InitializeBySpanningTree(PoseGraph& graph);
 
 // Chains the odometry edges (consecutive ids) outward from each component's
@@ -44,9 +44,5 @@ struct InitReport {
 
 // Runs one initialiser on the graph and reports its time and chi-squared.
 InitReport Initialize(PoseGraph& graph, InitMethod method);
-
-// Vertex ids of each connected component (between-edges only), each sorted,
-// components ordered by their lowest id.
-std::vector<std::vector<int64_t>> ConnectedComponents(const PoseGraph& graph);
 
 }  // namespace cairn

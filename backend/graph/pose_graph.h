@@ -1,6 +1,8 @@
 // The pose graph: vertices (robot poses) and edges (odometry, loop closures,
-// priors) with their measurements and information matrices. One graph is
-// either planar (SE2) or spatial (SE3), never both.
+// priors) with their measurements and information matrices, and what
+// follows from the graph alone (its connected components, measurements
+// chained along a spanning tree). One graph is either planar (SE2) or
+// spatial (SE3), never both.
 #pragma once
 
 #include <Eigen/Core>
@@ -16,8 +18,6 @@
 #include "cairn/graph/geometry.h"
 
 namespace cairn {
-
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 enum class EdgeKind { kOdometry, kLoopClosure, kPrior };
 const char* ToString(EdgeKind kind);
@@ -121,5 +121,21 @@ EdgeKind KindForBetween(int64_t from, int64_t to);
 
 // True when `info` is symmetric (to a relative 1e-9) and positive definite.
 bool IsSymmetricPositiveDefinite(const Eigen::MatrixXd& info);
+
+// Vertex ids of each connected component (between-edges only), each sorted,
+// components ordered by their lowest id.
+std::vector<std::vector<int64_t>> ConnectedComponents(const PoseGraph& graph);
+
+// The pose at one end of between-edge `e`, chained from the pose at the
+// other: e.to's from e.from's pose when `forward`, else e.from's from e.to's.
+PoseParams ChainMeasurement(const PoseGraph& graph, const Edge& e, const PoseParams& from_pose,
+                            bool forward);
+
+// Sets every vertex's estimate by chaining measurements outward along a
+// spanning tree that prefers the most certain edges (largest information
+// trace). Each component starts at its fixed vertex if it has one, else at
+// its lowest id, which keeps its current pose. Priors are not followed.
+// What a file without vertices is placed by (graph_io.h).
+void ChainAlongSpanningTree(PoseGraph& graph);
 
 }  // namespace cairn

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 #include <ostream>
+#include <utility>
 
 namespace cairn {
 namespace {
@@ -36,18 +37,25 @@ struct Mapping {
   }
 };
 
-Mapping Fit(const PoseGraph& g, double left, double top) {
+// Grows [min, max] on both axes by one point, when finite.
+void Extend(double x, double y, double* xmin, double* xmax, double* ymin, double* ymax) {
+  if (!std::isfinite(x) || !std::isfinite(y)) return;
+  *xmin = std::min(*xmin, x);
+  *xmax = std::max(*xmax, x);
+  *ymin = std::min(*ymin, y);
+  *ymax = std::max(*ymax, y);
+}
+
+// One scale for everything the panel draws: its graph and its trajectories.
+Mapping Fit(const PlotPanel& p, double left, double top) {
   double xmin = std::numeric_limits<double>::infinity(), ymin = xmin;
   double xmax = -xmin, ymax = -xmin;
-  for (const Vertex& v : g.vertices()) {
-    if (!std::isfinite(v.x[0]) || !std::isfinite(v.x[1])) continue;
-    xmin = std::min(xmin, v.x[0]);
-    xmax = std::max(xmax, v.x[0]);
-    ymin = std::min(ymin, v.x[1]);
-    ymax = std::max(ymax, v.x[1]);
-  }
+  if (p.graph)
+    for (const Vertex& v : p.graph->vertices()) Extend(v.x[0], v.x[1], &xmin, &xmax, &ymin, &ymax);
+  for (const PlotTrajectory& t : p.trajectories)
+    for (const SE2& s : t.poses) Extend(s.x(), s.y(), &xmin, &xmax, &ymin, &ymax);
   Mapping m;
-  if (!(xmin <= xmax)) return m;  // no finite vertex
+  if (!(xmin <= xmax)) return m;  // no finite point
   const double span = std::max({xmax - xmin, ymax - ymin, 1e-9});
   const double inner = kPanel - 2 * kMargin;
   m.scale = inner / span;
@@ -78,7 +86,39 @@ void Path(std::ostream& out, const PoseGraph& g, const Mapping& m, bool loops,
       << "\"/>\n";
 }
 
+// Each trajectory as one polyline (non-finite poses left out), then their
+// labels in their colours, one line each, in the panel's lower-left corner.
+void Trajectories(std::ostream& out, const PlotPanel& p, const Mapping& m, double left,
+                  double top) {
+  char buf[64];
+  for (const PlotTrajectory& t : p.trajectories) {
+    std::string points;
+    for (const SE2& s : t.poses) {
+      double x, y;
+      m.Apply({s.x(), s.y()}, &x, &y);
+      if (!std::isfinite(x + y)) continue;
+      std::snprintf(buf, sizeof buf, "%s%.1f,%.1f", points.empty() ? "" : " ", x, y);
+      points += buf;
+    }
+    if (points.empty()) continue;
+    out << "<polyline fill=\"none\" stroke=\"" << t.color
+        << "\" stroke-width=\"1.5\" stroke-linejoin=\"round\" points=\"" << points << "\"/>\n";
+  }
+  const size_t n = p.trajectories.size();
+  for (size_t k = 0; k < n; ++k)
+    out << "<text x=\"" << left + kMargin << "\" y=\"" << top + kPanel - kMargin - 18.0 * (n - 1 - k)
+        << "\" font-family=\"sans-serif\" font-size=\"14\" fill=\"" << p.trajectories[k].color
+        << "\">" << Escape(p.trajectories[k].label) << "</text>\n";
+}
+
 }  // namespace
+
+PlotPanel TrajectoryPanel(std::vector<PlotTrajectory> trajectories, std::string title) {
+  PlotPanel p;
+  p.title = std::move(title);
+  p.trajectories = std::move(trajectories);
+  return p;
+}
 
 void WriteSvgPlot(std::ostream& out, const std::vector<PlotPanel>& panels,
                   const std::string& title) {
@@ -98,14 +138,17 @@ void WriteSvgPlot(std::ostream& out, const std::vector<PlotPanel>& panels,
   out << "</g>\n";
   for (size_t i = 0; i < panels.size(); ++i) {
     const PlotPanel& p = panels[i];
-    if (!p.graph) continue;
+    if (!p.graph && p.trajectories.empty()) continue;
     const double left = i * kPanel;
     out << "<rect x=\"" << left + 2 << "\" y=\"" << top + 2 << "\" width=\"" << kPanel - 4
         << "\" height=\"" << kPanel - 4 << "\" fill=\"none\" stroke=\"#ccc\"/>\n";
-    const Mapping m = Fit(*p.graph, left, top);
-    // Loop closures first, underneath the trajectory.
-    if (p.loop_closures) Path(out, *p.graph, m, true, p.loop_color, 0.5, 0.35);
-    Path(out, *p.graph, m, false, p.color, 1.0, 0.9);
+    const Mapping m = Fit(p, left, top);
+    if (p.graph) {
+      // Loop closures first, underneath the trajectory.
+      if (p.loop_closures) Path(out, *p.graph, m, true, p.loop_color, 0.5, 0.35);
+      Path(out, *p.graph, m, false, p.color, 1.0, 0.9);
+    }
+    Trajectories(out, p, m, left, top);
   }
   out << "</svg>\n";
 }

@@ -178,26 +178,4 @@ long SupernodalNonZeros(const cholmod_factor* factor) {
   return nz;
 }
 
-void ConfigureCholmod(cholmod_common* common) {
-  // AMD alone: the default also tries METIS/NESDIS, which costs more in the
-  // one-off analysis than it saves on pose graphs.
-  common->nmethods = 1;
-  common->method[0].ordering = CHOLMOD_AMD;
-  common->postorder = 1;
-  common->print = 0;
-  // Coarser supernodes than CHOLMOD's defaults (4/16/48 columns, 80/10/5%
-  // explicit zeros): a pose graph's supernodes are narrow, and BLAS runs
-  // faster on fewer, larger dense blocks than the zeros cost. Measured on
-  // the normal matrices of city10000 and sphere2500 (bench_gauss_newton):
-  // 58 -> 37 ms and 41 -> 30 ms per factorisation, for 1.7 and 1.5 times
-  // the nonzeros.
-  common->nrelax[0] = 16;
-  common->nrelax[1] = 64;
-  common->nrelax[2] = 128;
-  common->zrelax[0] = 0.8;
-  common->zrelax[1] = 0.3;
-  common->zrelax[2] = 0.1;
-  common->error_handler = nullptr;
-}
-
 }  // namespace cairn

@@ -54,7 +54,4 @@ cholmod_sparse* LocalPattern(const std::vector<int>& col_ptr, const std::vector<
 // Nonzeros of a supernodal factor's L (each supernode's trapezoid).
 long SupernodalNonZeros(const cholmod_factor* factor);
 
-// cairn's CHOLMOD settings: see the comment in the definition.
-void ConfigureCholmod(cholmod_common* common);
-
 }  // namespace cairn

@@ -27,6 +27,7 @@
 #include <stdexcept>
 
 #include "cairn/linear/block_ordering.h"
+#include "cairn/linear/cholmod_common.h"
 #include "cairn/linear/parallel.h"
 #include "cairn/linear/serial_scope.h"
 
@@ -194,7 +195,7 @@ Cut CutAtSeparator(const BlockPattern& pattern, const std::vector<int>& post,
 
 // One half of the graph with the separator after it, and its factor.
 struct Half {
-  cholmod_common common;
+  CholmodCommon common;
   cholmod_sparse* m = nullptr;  // M_g, lower triangle
   cholmod_factor* factor = nullptr;
   cholmod_dense *rhs = nullptr, *forward = nullptr, *backward = nullptr, *ws_y = nullptr,
@@ -207,19 +208,12 @@ struct Half {
   Eigen::MatrixXd d, dd;      // D_g, and D_g D_g' (lower)
   bool ok = false;
 
-  Half() {
-    cholmod_start(&common);
-    ConfigureCholmod(&common);
-  }
-  ~Half() {
-    Release();
-    cholmod_finish(&common);
-  }
+  ~Half() { Release(); }
   void Release() {
-    if (factor) cholmod_free_factor(&factor, &common);
-    if (m) cholmod_free_sparse(&m, &common);
+    if (factor) cholmod_free_factor(&factor, common.get());
+    if (m) cholmod_free_sparse(&m, common.get());
     for (cholmod_dense** v : {&rhs, &forward, &backward, &ws_y, &ws_e})
-      if (*v) cholmod_free_dense(v, &common);
+      if (*v) cholmod_free_dense(v, common.get());
   }
 
   // CHOLMOD's choice between its methods, for this half: the simplicial one
@@ -235,22 +229,22 @@ struct Half {
   void Analyze(const std::vector<int>& col_ptr, const std::vector<int>& rows,
                const std::vector<int>& local) {
     const int size = static_cast<int>(unknowns.size());
-    common.method[0].ordering = CHOLMOD_NATURAL;  // already in elimination order
-    common.postorder = 0;
-    common.final_ll = 1;
-    common.supernodal = CHOLMOD_AUTO;
-    common.supernodal_switch = kSupernodalSwitch;
-    m = LocalPattern(col_ptr, rows, local, size, /*upper=*/true, &scatter, &common);
-    factor = cholmod_analyze(m, &common);
+    common->method[0].ordering = CHOLMOD_NATURAL;  // already in elimination order
+    common->postorder = 0;
+    common->final_ll = 1;
+    common->supernodal = CHOLMOD_AUTO;
+    common->supernodal_switch = kSupernodalSwitch;
+    m = LocalPattern(col_ptr, rows, local, size, /*upper=*/true, &scatter, common.get());
+    factor = cholmod_analyze(m, common.get());
     if (factor && factor->is_super) {
-      cholmod_free_factor(&factor, &common);
-      cholmod_free_sparse(&m, &common);
-      m = LocalPattern(col_ptr, rows, local, size, /*upper=*/false, &scatter, &common);
-      common.supernodal = CHOLMOD_SUPERNODAL;
-      factor = cholmod_analyze(m, &common);
+      cholmod_free_factor(&factor, common.get());
+      cholmod_free_sparse(&m, common.get());
+      m = LocalPattern(col_ptr, rows, local, size, /*upper=*/false, &scatter, common.get());
+      common->supernodal = CHOLMOD_SUPERNODAL;
+      factor = cholmod_analyze(m, common.get());
     }
     if (!factor) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
-    rhs = cholmod_allocate_dense(size, 1, size, CHOLMOD_REAL, &common);
+    rhs = cholmod_allocate_dense(size, 1, size, CHOLMOD_REAL, common.get());
     for (size_t k = 0; k < scatter.size(); ++k)
       if (scatter[k] >= 0) from.push_back(static_cast<int>(k)), to.push_back(scatter[k]);
   }
@@ -258,10 +252,10 @@ struct Half {
   void Factorize(const double* values) {
     double* mx = static_cast<double*>(m->x);
     for (size_t t = 0; t < from.size(); ++t) mx[to[t]] = values[from[t]];
-    ok = cholmod_factorize(m, factor, &common) && common.status == CHOLMOD_OK &&
+    ok = cholmod_factorize(m, factor, common.get()) && common->status == CHOLMOD_OK &&
          factor->minor == factor->n;
     if (ok && !factor->is_ll)
-      ok = cholmod_change_factor(CHOLMOD_REAL, /*to_ll=*/1, 0, 1, 1, factor, &common);
+      ok = cholmod_change_factor(CHOLMOD_REAL, /*to_ll=*/1, 0, 1, 1, factor, common.get());
     if (!ok) return;
     // D_g: the separator's columns, the last of the factor.
     const int nt = static_cast<int>(m->nrow) - own;
@@ -324,7 +318,7 @@ class DomainCholmod final : public SparseCholesky {
     if (static_cast<int>(given_.size()) == pattern.blocks()) {
       used_ = Postordered(given_, pattern, &parent);
       cut = PlanCut(pattern, used_, parent);
-    } else if (BisectionOrder(pattern, &half_[0].common, &order, &side)) {
+    } else if (BisectionOrder(pattern, half_[0].common.get(), &order, &side)) {
       used_ = Postordered(order, pattern, &parent);
       cut = CutAtSeparator(pattern, used_, parent, side);
     }
@@ -413,7 +407,7 @@ class DomainCholmod final : public SparseCholesky {
         for (int t = 0; t < h.own; ++t) r[t] = b[h.unknowns[t]];
         std::fill(r + h.own, r + h.own + nt, 0.0);
         cholmod_solve2(CHOLMOD_L, h.factor, h.rhs, nullptr, &h.forward, nullptr, &h.ws_y, &h.ws_e,
-                       &h.common);
+                       h.common.get());
         const Eigen::Map<const Eigen::VectorXd> y_top(
             static_cast<const double*>(h.forward->x) + h.own, nt);
         through_[g].noalias() = h.d.triangularView<Eigen::Lower>() * y_top;
@@ -431,7 +425,7 @@ class DomainCholmod final : public SparseCholesky {
         Eigen::Map<Eigen::VectorXd>(r + h.own, nt).noalias() =
             h.d.transpose().triangularView<Eigen::Upper>() * x_top_;
         cholmod_solve2(CHOLMOD_Lt, h.factor, h.rhs, nullptr, &h.backward, nullptr, &h.ws_y,
-                       &h.ws_e, &h.common);
+                       &h.ws_e, h.common.get());
         const double* z = static_cast<const double*>(h.backward->x);
         for (int t = 0; t < h.own; ++t) x[h.unknowns[t]] = z[t];
       }

@@ -1,6 +1,7 @@
 #include "cairn/linear/sparse_cholesky.h"
 
 #include "cairn/linear/block_ordering.h"
+#include "cairn/linear/cholmod_common.h"
 #include "cairn/linear/domain_cholesky.h"
 #include "cairn/linear/serial_scope.h"
 
@@ -19,19 +20,16 @@ namespace {
 class Cholmod final : public SparseCholesky {
  public:
   explicit Cholmod(int mode) {
-    cholmod_start(&common_);
-    ConfigureCholmod(&common_);
-    common_.supernodal = mode_ = mode;
+    common_->supernodal = mode_ = mode;
   }
   ~Cholmod() override {
-    if (factor_) cholmod_free_factor(&factor_, &common_);
-    if (a_) cholmod_free_sparse(&a_, &common_);
-    if (permuted_) cholmod_free_sparse(&permuted_, &common_);
-    if (x_) cholmod_free_dense(&x_, &common_);
-    if (b_) cholmod_free_dense(&b_, &common_);
-    if (y_) cholmod_free_dense(&y_, &common_);
-    if (e_) cholmod_free_dense(&e_, &common_);
-    cholmod_finish(&common_);
+    if (factor_) cholmod_free_factor(&factor_, common_.get());
+    if (a_) cholmod_free_sparse(&a_, common_.get());
+    if (permuted_) cholmod_free_sparse(&permuted_, common_.get());
+    if (x_) cholmod_free_dense(&x_, common_.get());
+    if (b_) cholmod_free_dense(&b_, common_.get());
+    if (y_) cholmod_free_dense(&y_, common_.get());
+    if (e_) cholmod_free_dense(&e_, common_.get());
   }
 
   void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
@@ -43,13 +41,13 @@ class Cholmod final : public SparseCholesky {
     if (perm.empty()) {
       // Not blocked: CHOLMOD orders (AMD, postordered) and the permutation
       // is taken from its analysis.
-      common_.supernodal = mode_ == CHOLMOD_AUTO ? CHOLMOD_AUTO : CHOLMOD_SIMPLICIAL;
-      common_.method[0].ordering = CHOLMOD_AMD;
-      common_.postorder = 1;
-      cholmod_factor* ordered = cholmod_analyze(a_, &common_);
+      common_->supernodal = mode_ == CHOLMOD_AUTO ? CHOLMOD_AUTO : CHOLMOD_SIMPLICIAL;
+      common_->method[0].ordering = CHOLMOD_AMD;
+      common_->postorder = 1;
+      cholmod_factor* ordered = cholmod_analyze(a_, common_.get());
       if (!ordered) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
       perm.assign(static_cast<const int*>(ordered->Perm), static_cast<const int*>(ordered->Perm) + n);
-      cholmod_free_factor(&ordered, &common_);
+      cholmod_free_factor(&ordered, common_.get());
     }
     perm_ = std::move(perm);
     // CHOLMOD's choice of method needs its analysis: made on the simplicial
@@ -98,8 +96,8 @@ class Cholmod final : public SparseCholesky {
     double* to = static_cast<double*>(permuted_->x);
     for (size_t k = 0; k < scatter_.size(); ++k) to[scatter_[k]] = from[k];
     SerialLinearAlgebraScope serial;
-    const int ok = cholmod_factorize(permuted_, factor_, &common_);
-    return ok && common_.status == CHOLMOD_OK;
+    const int ok = cholmod_factorize(permuted_, factor_, common_.get());
+    return ok && common_->status == CHOLMOD_OK;
   }
 
   void Solve(const double* b, double* x) override {
@@ -107,7 +105,7 @@ class Cholmod final : public SparseCholesky {
     for (int k = 0; k < n_; ++k) pb[k] = b[perm_[k]];
     SerialLinearAlgebraScope serial;
     // cholmod_solve2 keeps its result and workspace between calls.
-    cholmod_solve2(CHOLMOD_A, factor_, b_, nullptr, &x_, nullptr, &y_, &e_, &common_);
+    cholmod_solve2(CHOLMOD_A, factor_, b_, nullptr, &x_, nullptr, &y_, &e_, common_.get());
     const double* px = static_cast<const double*>(x_->x);
     for (int k = 0; k < n_; ++k) x[perm_[k]] = px[k];
   }
@@ -128,17 +126,17 @@ class Cholmod final : public SparseCholesky {
 
  private:
   void Release(bool keep_pattern = false) {
-    if (factor_) cholmod_free_factor(&factor_, &common_);
-    if (a_ && !keep_pattern) cholmod_free_sparse(&a_, &common_);
-    if (permuted_) cholmod_free_sparse(&permuted_, &common_);
+    if (factor_) cholmod_free_factor(&factor_, common_.get());
+    if (a_ && !keep_pattern) cholmod_free_sparse(&a_, common_.get());
+    if (permuted_) cholmod_free_sparse(&permuted_, common_.get());
     for (cholmod_dense** d : {&b_, &x_, &y_, &e_})
-      if (*d) cholmod_free_dense(d, &common_);
+      if (*d) cholmod_free_dense(d, common_.get());
   }
 
   void SetPattern(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows) {
     n_ = n;
     a_ = cholmod_allocate_sparse(n, n, rows.size(), /*sorted=*/1, /*packed=*/1, /*stype=*/1,
-                                 CHOLMOD_REAL, &common_);
+                                 CHOLMOD_REAL, common_.get());
     if (!a_) throw std::runtime_error("CHOLMOD: out of memory allocating the normal matrix");
     std::memcpy(a_->p, col_ptr.data(), sizeof(int) * (n + 1));
     std::memcpy(a_->i, rows.data(), sizeof(int) * rows.size());
@@ -160,16 +158,16 @@ class Cholmod final : public SparseCholesky {
     for (int k = 0; k < n; ++k) inverse[perm_[k]] = k;
     // The simplicial method reads the upper triangle, the supernodal the lower.
     permuted_ =
-        LocalPattern(col_ptr, rows, inverse, n, /*upper=*/!supernodal_, &scatter_, &common_);
+        LocalPattern(col_ptr, rows, inverse, n, /*upper=*/!supernodal_, &scatter_, common_.get());
     // Already in the fill-reducing order (postordered): analysed as is.
-    common_.method[0].ordering = CHOLMOD_NATURAL;
-    common_.postorder = 0;
-    common_.supernodal = method == CHOLMOD_AUTO ? CHOLMOD_AUTO
+    common_->method[0].ordering = CHOLMOD_NATURAL;
+    common_->postorder = 0;
+    common_->supernodal = method == CHOLMOD_AUTO ? CHOLMOD_AUTO
                          : supernodal_          ? CHOLMOD_SUPERNODAL
                                                 : CHOLMOD_SIMPLICIAL;
-    factor_ = cholmod_analyze(permuted_, &common_);
+    factor_ = cholmod_analyze(permuted_, common_.get());
     if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
-    b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, &common_);
+    b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, common_.get());
   }
 
   // AMD on the block graph (or the given block ordering), postordered and
@@ -181,7 +179,7 @@ class Cholmod final : public SparseCholesky {
     const BlockPattern pattern = MakeBlockPattern(n, col_ptr, rows, block_sizes);
     std::vector<int> order = given_;
     if (static_cast<int>(order.size()) != pattern.blocks())
-      order = AmdBlockOrder(pattern, &common_);
+      order = AmdBlockOrder(pattern, common_.get());
     if (order.empty()) return {};
     used_ = Postordered(order, pattern);
     return ExpandBlocks(used_, pattern);
@@ -189,7 +187,7 @@ class Cholmod final : public SparseCholesky {
 
   std::vector<int> given_, used_;
 
-  cholmod_common common_;
+  CholmodCommon common_;
   cholmod_sparse* a_ = nullptr;         // H as the caller lays it out
   cholmod_sparse* permuted_ = nullptr;  // P H P' in the triangle the method reads
   std::vector<int> perm_;               // row k of permuted_ is row perm_[k] of H

@@ -12,40 +12,10 @@
 #include "cairn/graph/geometry.h"
 
 namespace cairn {
-namespace {
-
-// Poses as (t, w) tangent coordinates with right perturbations X Exp(d),
-// first order: the adjoint of S^{-1}, which carries a perturbation on the
-// right of X past S (X Exp(d) S = X S Exp(AdInv(S) d)).
-Eigen::MatrixXd AdInverse(const SE2& s) {
-  Eigen::MatrixXd a = Eigen::MatrixXd::Identity(3, 3);
-  const Eigen::Matrix2d rt = s.rotation().transpose();
-  a.topLeftCorner<2, 2>() = rt;
-  a.topRightCorner<2, 1>() = rt * Eigen::Vector2d(-s.y(), s.x());  // R^T J t
-  return a;
-}
-Eigen::MatrixXd AdInverse(const SE3& s) {
-  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(6, 6);
-  const Eigen::Matrix3d rt = s.rotation().toRotationMatrix().transpose();
-  const Eigen::Vector3d t = s.translation();
-  Eigen::Matrix3d tx;
-  tx << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
-  a.topLeftCorner<3, 3>() = rt;
-  a.topRightCorner<3, 3>() = -rt * tx;
-  a.bottomRightCorner<3, 3>() = rt;
-  return a;
-}
-Eigen::VectorXd Log(const SE2& e) { return e.ToVector(); }
-Eigen::VectorXd Log(const SE3& e) {
-  Eigen::VectorXd v(6);
-  v << e.translation(), QuaternionLog(e.rotation());
-  return v;
-}
-
-}  // namespace
 
 // A measurement with its covariance, carried around the short cycle that two
-// loop closures close with the odometry between their ends.
+// loop closures close with the odometry between their ends (the poses right
+// perturbations carried past each other with InverseAdjoint).
 namespace {
 
 template <typename Pose>
@@ -53,7 +23,7 @@ struct Measured {
   Pose z;
   Eigen::MatrixXd cov;  // of the right perturbation, (t, w) coordinates
   Measured Inverse() const {
-    const Eigen::MatrixXd ad = AdInverse(z.Inverse());  // Ad(z)
+    const Eigen::MatrixXd ad = InverseAdjoint(z.Inverse());  // Ad(z)
     return {z.Inverse(), ad * cov * ad.transpose()};
   }
 };
@@ -114,11 +84,11 @@ std::vector<int> LocalSupport(const PoseGraph& graph, int window, double thresho
     Pose s;  // the product of the factors after the current one
     Eigen::MatrixXd cov = i.m.cov;
     for (size_t k = f.size(); k-- > 0;) {
-      const Eigen::MatrixXd ad = AdInverse(s);
+      const Eigen::MatrixXd ad = InverseAdjoint(s);
       cov += ad * f[k].cov * ad.transpose();
       s = f[k].z * s;
     }
-    const Eigen::VectorXd e = Log(i.m.z.Inverse() * s);
+    const Eigen::VectorXd e = LogMap(i.m.z.Inverse() * s);
     return e.dot(cov.ldlt().solve(e)) <= threshold;
   };
   // Buckets of window x window ids; neighbours lie in the 3 x 3 around.

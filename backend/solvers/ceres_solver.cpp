@@ -14,17 +14,14 @@
 #include <vector>
 
 #include "cairn/graph/chi2.h"
+#include "cairn/graph/runtime.h"
 #include "cairn/linear/serial_scope.h"
 #include "cairn/solvers/graph_factors.h"
-#include "cholmod.h"
+#include "cairn/linear/cholmod_common.h"
 #include "cairn/factors/pose_manifold.h"
 
 namespace cairn {
 namespace {
-
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
 
 class TraceCallback : public ceres::IterationCallback {
  public:
@@ -106,8 +103,8 @@ FactorEstimate EstimateFactor(const PoseGraph& graph) {
   }
   FactorEstimate est;
   if (n == 0) return est;
-  cholmod_common cc;
-  cholmod_start(&cc);
+  CholmodCommon holder;
+  cholmod_common& cc = *holder.get();
   cc.nmethods = 1;
   cc.method[0].ordering = CHOLMOD_AMD;
   cc.supernodal = CHOLMOD_SIMPLICIAL;  // the counts are all we want
@@ -133,7 +130,6 @@ FactorEstimate EstimateFactor(const PoseGraph& graph) {
     }
     cholmod_free_sparse(&a, &cc);
   }
-  cholmod_finish(&cc);
   return est;
 }
 
@@ -191,11 +187,6 @@ CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_cl
                                  graph.vertex(e.to).x.data());
     }
   }
-}
-
-int ResolveThreads(int requested) {
-  return requested > 0 ? requested
-                       : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
 ceres::Solver::Options MakeSolverOptions(const PoseGraph& graph, const CeresOptions& options) {

@@ -13,6 +13,7 @@
 #include <optional>
 
 #include "cairn/graph/pose_graph.h"
+#include "cairn/graph/runtime.h"  // ResolveThreads
 #include "cairn/solvers/solve_result.h"
 
 namespace cairn {
@@ -82,9 +83,6 @@ class CeresGraphProblem {
 // library chosen per graph when kAuto); shared by the batch and incremental
 // paths. Callbacks are the caller's to add.
 ceres::Solver::Options MakeSolverOptions(const PoseGraph& graph, const CeresOptions& options);
-
-// Worker threads for a request: 0 means one per hardware thread.
-int ResolveThreads(int requested);
 
 // Optimises the graph's vertices in place. initial_chi2 and final_chi2 are
 // g2o's (without the robust loss); the per-iteration trace holds twice

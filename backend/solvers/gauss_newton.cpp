@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "cairn/graph/runtime.h"
 #include "cairn/linear/parallel.h"
 #include "cairn/linear/sparse_cholesky.h"
 #include "cairn/linear/serial_scope.h"
@@ -137,10 +138,6 @@ constexpr double kChordThreshold = 2e-2;
 constexpr double kMinRelativeDecrease = 1e-3;
 constexpr double kMinDamping = 1e-16, kMaxDamping = 1e32;
 
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
 // The small dense products of the inner loops, with sizes known at compile
 // time for the poses' blocks (2D: 3 residuals, 3 parameters, 3 tangent; 3D:
 // 6, 7, 6), where Eigen unrolls them; any other size takes the general path.
@@ -233,9 +230,7 @@ struct GaussNewtonProblem::PreviousAnalysis {
 };
 
 void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
-  pool_ = std::make_unique<ThreadPool>(
-      options.threads > 0 ? options.threads
-                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  pool_ = std::make_unique<ThreadPool>(ResolveThreads(options.threads));
   // A caller that only added to the problem (and says so with an ordering
   // hint) keeps the old analysis, extended, when the new pattern allows.
   PreviousAnalysis previous;

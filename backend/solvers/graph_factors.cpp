@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "cairn/graph/initialization.h"
+#include "cairn/graph/pose_graph.h"
 
 #include "cairn/factors/se2_factors.h"
 #include "cairn/factors/se3_factors.h"

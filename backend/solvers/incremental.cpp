@@ -15,10 +15,6 @@
 namespace cairn {
 namespace {
 
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
 
 Edge MakeEdge(EdgeKind kind, int64_t from, int64_t to, const PoseParams& z,
               const Eigen::MatrixXd& information) {

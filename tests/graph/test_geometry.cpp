@@ -8,13 +8,23 @@
 namespace cairn {
 namespace {
 
-TEST(NormalizeAngle, WrapsIntoHalfOpenInterval) {
+TEST(NormalizeAngle, WrapsIntoG2oHalfOpenInterval) {
+  // [-pi, pi), g2o's normalize_theta, the factors' WrapAngle.
   EXPECT_DOUBLE_EQ(NormalizeAngle(0.5), 0.5);
   EXPECT_NEAR(NormalizeAngle(3 * M_PI / 2), -M_PI / 2, 1e-15);
   EXPECT_NEAR(NormalizeAngle(-3 * M_PI / 2), M_PI / 2, 1e-15);
-  EXPECT_DOUBLE_EQ(NormalizeAngle(M_PI), M_PI);
-  EXPECT_NEAR(NormalizeAngle(-M_PI), M_PI, 1e-15);
-  EXPECT_NEAR(NormalizeAngle(7 * M_PI), M_PI, 1e-12);
+  EXPECT_DOUBLE_EQ(NormalizeAngle(M_PI), -M_PI);
+  EXPECT_DOUBLE_EQ(NormalizeAngle(-M_PI), -M_PI);
+  EXPECT_NEAR(std::cos(NormalizeAngle(7 * M_PI)), -1, 1e-15);
+  // In range: returned bit for bit; just below pi: not pushed past -pi.
+  const double below_pi = std::nextafter(M_PI, 0.0);
+  EXPECT_EQ(NormalizeAngle(below_pi), below_pi);
+  for (double a : {3 * M_PI - 1e-15, -3 * M_PI, 1e6, -1e6, std::nextafter(3 * M_PI, 0.0)}) {
+    const double r = NormalizeAngle(a);
+    EXPECT_GE(r, -M_PI) << a;
+    EXPECT_LT(r, M_PI) << a;
+  }
+  EXPECT_EQ(SE2(0, 0, M_PI).theta(), -M_PI);
 }
 
 TEST(SE2, ComposeByHand) {
@@ -22,7 +32,7 @@ TEST(SE2, ComposeByHand) {
   const SE2 c = SE2(1, 2, M_PI / 2) * SE2(3, 0, M_PI / 2);
   EXPECT_NEAR(c.x(), 1, 1e-15);
   EXPECT_NEAR(c.y(), 5, 1e-15);
-  EXPECT_NEAR(c.theta(), M_PI, 1e-15);
+  EXPECT_NEAR(c.theta(), -M_PI, 1e-15);  // pi is kept as -pi
 }
 
 TEST(SE2, InverseAndBetween) {
@@ -95,6 +105,50 @@ TEST(SE3, BoxPlusAndExpLog) {
   const SE3 p = a.BoxPlus(d);
   EXPECT_TRUE(p.translation().isApprox(Eigen::Vector3d(1, 1, 0), 1e-15));
   EXPECT_NEAR(Eigen::AngleAxisd(p.rotation()).angle(), M_PI / 2 + 0.5, 1e-14);
+}
+
+TEST(Chart, ExpAndLogInvertEachOtherAndMatchBoxPlus) {
+  const Eigen::Vector3d d2(0.4, -1.2, 2.9);
+  EXPECT_TRUE(LogMap(ExpMap(d2)).isApprox(d2, 1e-15));
+  const SE2 a(1, 2, 3.0);
+  const SE2 pa = a * ExpMap(d2), pb = a.BoxPlus(d2);
+  EXPECT_EQ(pa.ToVector(), pb.ToVector());
+  Vector6d d3;
+  d3 << 0.5, -0.1, 2, 0.3, -0.7, 1.1;
+  EXPECT_TRUE(LogMap(ExpMap(d3)).isApprox(d3, 1e-14));
+  const SE3 b(Eigen::Quaterniond(Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 2, 3).normalized())),
+              Eigen::Vector3d(4, 5, 6));
+  const SE3 qa = b * ExpMap(d3), qb = b.BoxPlus(d3);
+  EXPECT_TRUE(qa.ToVector().isApprox(qb.ToVector(), 1e-15));
+  // The rotation angle stays in [0, pi]: the short way round.
+  EXPECT_LE(LogMap(SE3(QuaternionExp(Eigen::Vector3d(0, 0, 1.5 * M_PI)), Eigen::Vector3d::Zero()))
+                .tail<3>()
+                .norm(),
+            M_PI);
+}
+
+// X ExpMap(d) S = X S ExpMap(InverseAdjoint(S) d) to first order: a small d
+// moved past S agrees to O(|d|^2).
+template <typename Pose, typename Tangent>
+void ExpectAdjointCarriesPerturbation(const Pose& s, const Tangent& direction) {
+  for (double h : {1e-4, 1e-5}) {
+    const Tangent d = h * direction;
+    const Tangent moved = LogMap(s.Inverse() * ExpMap(d) * s);
+    const Tangent predicted = InverseAdjoint(s) * d;
+    EXPECT_LT((moved - predicted).norm(), 10 * h * h) << h;
+  }
+  // Ad(S) undoes InverseAdjoint(S).
+  const Eigen::MatrixXd product = InverseAdjoint(s.Inverse()) * InverseAdjoint(s);
+  EXPECT_TRUE(product.isIdentity(1e-12));
+}
+
+TEST(Chart, InverseAdjointCarriesARightPerturbationPastAPose) {
+  ExpectAdjointCarriesPerturbation(SE2(1.5, -2, 2.2), Eigen::Vector3d(0.3, -0.8, 0.5));
+  Vector6d d;
+  d << 0.2, 0.4, -0.6, 0.5, -0.3, 0.7;
+  const SE3 s(Eigen::Quaterniond(Eigen::AngleAxisd(1.1, Eigen::Vector3d(-1, 2, 0.5).normalized())),
+              Eigen::Vector3d(3, -1, 2));
+  ExpectAdjointCarriesPerturbation(s, d);
 }
 
 }  // namespace

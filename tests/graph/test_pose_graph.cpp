@@ -1,4 +1,5 @@
-// The pose-graph model: validation, edge kinds, chi-squared, components.
+// The pose-graph model: validation, edge kinds, chi-squared, components,
+// chaining along a spanning tree.
 #include <gtest/gtest.h>
 
 #include "cairn/graph/chi2.h"
@@ -106,10 +107,44 @@ TEST(SpanningTree, ChainsMeasurementsAlongMostCertainEdges) {
   const SE2 p2 = ToSE2(g.vertex(2).x), p3 = ToSE2(g.vertex(3).x);
   EXPECT_NEAR(p2.x(), 1, 1e-12);
   EXPECT_NEAR(p2.y(), 1, 1e-12);
-  EXPECT_NEAR(p2.theta(), M_PI, 1e-12);
+  EXPECT_NEAR(p2.theta(), -M_PI, 1e-12);  // pi, kept as -pi
   // x3 = x2 * z^-1 with z = (0, -1, 0): one metre to x2's left, i.e. (1, 0).
   EXPECT_NEAR(p3.x(), 1, 1e-12);
   EXPECT_NEAR(p3.y(), 0, 1e-12);
+}
+
+TEST(SpanningTree, TheGraphModelChainsWhatTheInitialiserDoes) {
+  // The initialiser is the graph model's chaining, bit for bit, in 3D too.
+  PoseGraph a(3);
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()));
+  for (int i = 0; i < 5; ++i) a.AddVertex(i, SE3());
+  for (int i = 0; i + 1 < 5; ++i) {
+    Edge e;
+    e.from = i;
+    e.to = i + 1;
+    e.z = ToParams(SE3(q, Eigen::Vector3d(1, 0, 0.1 * i)));
+    e.information *= 1 + i;
+    a.AddEdge(e);
+  }
+  Edge loop;
+  loop.kind = EdgeKind::kLoopClosure;
+  loop.from = 4;
+  loop.to = 0;
+  loop.z = ToParams(SE3(q.conjugate(), Eigen::Vector3d(-2, 1, 0)));
+  loop.information *= 1000;  // the most certain edge: followed first, backwards
+  a.AddEdge(loop);
+  PoseGraph b = a;
+  ChainAlongSpanningTree(a);
+  InitializeBySpanningTree(b);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(a.vertex(i).x, b.vertex(i).x) << i;
+  // Vertex 4 came from 0 through the loop closure, inverted.
+  const SE3 expected = SE3() * ToSE3(loop.z).Inverse();
+  EXPECT_TRUE(ToSE3(a.vertex(4).x).translation().isApprox(expected.translation(), 1e-15));
+  // ChainMeasurement both ways round.
+  const PoseParams x4 = ChainMeasurement(a, loop, a.vertex(0).x, /*forward=*/false);
+  EXPECT_EQ(x4, a.vertex(4).x);
+  const SE3 back = ToSE3(ChainMeasurement(a, loop, x4, /*forward=*/true));
+  EXPECT_LT(back.translation().norm(), 1e-15);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // The hand-written SVG plots: well-formed enough for a browser, one panel
-// per graph, loop closures apart from the trajectory, 3D as its x-y view.
+// per graph, loop closures apart from the trajectory, 3D as its x-y view,
+// labelled trajectories (the front-end's) in one frame with a legend.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -96,6 +97,58 @@ TEST(SvgPlot, EqualScaleOnBothAxesAndNoNonFiniteCoordinates) {
   const double wy = *std::max_element(ys.begin(), ys.end()) - *std::min_element(ys.begin(), ys.end());
   EXPECT_NEAR(wx, wy, 0.2);
   EXPECT_GT(wx, 100);
+}
+
+// The points of every polyline, as (x, y) pairs.
+std::vector<std::pair<double, double>> PolylinePoints(const std::string& svg) {
+  std::vector<std::pair<double, double>> out;
+  const std::regex line("points=\"([^\"]*)\""), pair("([-0-9.]+),([-0-9.]+)");
+  for (std::sregex_iterator it(svg.begin(), svg.end(), line), end; it != end; ++it) {
+    const std::string pts = (*it)[1];
+    for (std::sregex_iterator p(pts.begin(), pts.end(), pair); p != end; ++p)
+      out.emplace_back(std::stod((*p)[1]), std::stod((*p)[2]));
+  }
+  return out;
+}
+
+TEST(SvgPlot, TrajectoriesShareOnePanelWithALegend) {
+  // Dead reckoning drifting away from the optimised path: both in one frame.
+  PlotTrajectory dr{"dead <reckoning>", "#d62728", {}}, opt{"optimised", "#1f77b4", {}};
+  for (int i = 0; i <= 10; ++i) {
+    dr.poses.emplace_back(i, 0.5 * i, 0);
+    opt.poses.emplace_back(i, 0, 0);
+  }
+  opt.poses.emplace_back(std::nan(""), 0, 0);  // left out, not drawn as nan
+  const std::string svg = Plot({TrajectoryPanel({dr, opt})}, "");
+  EXPECT_EQ(svg.rfind("<?xml", 0), 0u);
+  EXPECT_NE(svg.find("width=\"520\""), std::string::npos);  // one panel
+  EXPECT_EQ(Count(svg, "<polyline"), 2u);
+  EXPECT_EQ(Count(svg, "<path"), 0u);  // no graph in this panel
+  EXPECT_NE(svg.find(">dead &lt;reckoning&gt;</text>"), std::string::npos);
+  EXPECT_NE(svg.find("fill=\"#1f77b4\">optimised</text>"), std::string::npos);
+  EXPECT_EQ(svg.find("nan"), std::string::npos);
+  const auto pts = PolylinePoints(svg);
+  ASSERT_EQ(pts.size(), 22u);
+  // One scale: the 10 m run spans the inner panel, the 5 m rise half that,
+  // and both lines start at the same point.
+  EXPECT_EQ(pts[0], pts[11]);
+  EXPECT_NEAR(pts[10].first - pts[0].first, 480, 0.2);
+  EXPECT_NEAR(pts[0].second - pts[10].second, 240, 0.2);  // y up
+  for (const auto& [x, y] : pts) {
+    EXPECT_GE(x, 0);
+    EXPECT_LE(x, 520);
+  }
+}
+
+TEST(SvgPlot, TrajectoriesOverAGraphWidenItsFrame) {
+  const PoseGraph g = Square(2);
+  PlotPanel p{&g, "t"};
+  const std::string alone = Plot({p}, "");
+  p.trajectories.push_back({"far", "#000000", {SE2(0, 0, 0), SE2(20, 0, 0)}});
+  const std::string both = Plot({p}, "");
+  EXPECT_EQ(Count(both, "<path"), Count(alone, "<path"));
+  EXPECT_EQ(Count(both, "<polyline"), 1u);
+  EXPECT_NE(alone, both);  // the square is drawn at half the scale now
 }
 
 }  // namespace

@@ -82,7 +82,7 @@ int RunMap(int argc, char** argv) {
   mo.keyframe_distance = kf_dist;
   mo.keyframe_angle = kf_angle_deg * M_PI / 180;
   mo.max_range = max_range;
-  mo.optimize.solver = solver;
+  mo.optimize.solver = ParseSolverKind(solver);
   t = Clock::now();
   const frontend::MapResult res = frontend::BuildPoseGraph(log, mo, quiet ? nullptr : &std::cerr);
   const double t_graph = Since(t);

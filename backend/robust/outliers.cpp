@@ -125,8 +125,8 @@ double LoopClosureThreshold(double confidence, int dof, size_t loop_closures) {
 
 OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolver& solve,
                                               const OutlierRejectionOptions& options) {
-  if (!(options.mu_factor > 1)) throw std::invalid_argument("GNC's mu factor must exceed 1");
-  if (options.max_rounds < 1) throw std::invalid_argument("GNC needs at least one round");
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
   OutlierRejectionResult out;
   const double initial_chi2 = Chi2(graph);
   std::vector<size_t> closures;

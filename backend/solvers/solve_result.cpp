@@ -49,6 +49,14 @@ bool LooksNumeric(const std::string& s) {
 
 }  // namespace
 
+SolverKind ParseSolverKind(const std::string& text) {
+  if (text == "ceres") return SolverKind::kCeres;
+  if (text == "gn") return SolverKind::kGaussNewton;
+  throw std::invalid_argument("unknown solver '" + text + "' (expected ceres or gn)");
+}
+
+const char* ToString(SolverKind kind) { return kind == SolverKind::kCeres ? "ceres" : "gn"; }
+
 RobustLoss ParseRobustLoss(const std::string& text) {
   if (text.empty() || text == "none") return {};
   const size_t colon = text.find(':');

@@ -84,13 +84,11 @@ struct SolveResult {
 
 // Writes the result as one JSON object: the fields above (the trace as an
 // array of objects), preceded by `context` (e.g. input file, sizes), whose
-// values are written as JSON strings unless they parse as numbers.
+// values are written as JSON strings unless they parse as numbers. A number
+// that is not finite is written as null, with a string "<key>_note" after it
+// saying which ("not finite (inf)"): JSON has no infinity or NaN.
 void WriteReportJson(const SolveResult& result, std::ostream& out,
                      const std::vector<std::pair<std::string, std::string>>& context = {});
-
-// `s` as a JSON string: quoted, with quotes, backslashes and control
-// characters escaped.
-std::string JsonString(const std::string& s);
 
 // The one-line progress format shared by the solvers (no trailing newline).
 std::string FormatIteration(const IterationRecord& record);

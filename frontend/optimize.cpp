@@ -12,22 +12,13 @@ namespace cairn::frontend {
 OptimizeSummary OptimizeGraph(PoseGraph& graph, const OptimizeOptions& options) {
   if (graph.dimension() != 2) throw std::invalid_argument("the front-end optimises 2D graphs");
   const RobustLoss loss{RobustLoss::kCauchy, options.robust_scale};
-  SolveResult r;
-  if (options.solver == "ceres") {
-    CeresOptions o;
-    o.max_iterations = options.max_iterations;
-    o.threads = 1;
-    o.loop_closure_loss = loss;
-    r = SolveWithCeres(graph, o);
-  } else if (options.solver == "gn") {
-    GaussNewtonOptions o;
-    o.max_iterations = options.max_iterations;
-    o.threads = 1;
-    o.loop_closure_loss = loss;
-    r = SolveGaussNewton(graph, o);
-  } else {
-    throw std::invalid_argument("unknown solver '" + options.solver + "' (ceres or gn)");
-  }
+  SolverOptions common;
+  common.max_iterations = options.max_iterations;
+  common.threads = 1;
+  common.loop_closure_loss = loss;
+  const SolveResult r = options.solver == SolverKind::kCeres
+                            ? SolveWithCeres(graph, CeresOptions(common))
+                            : SolveGaussNewton(graph, GaussNewtonOptions(common));
   return {r.iterations, r.initial_chi2, r.final_chi2};
 }
 

@@ -3,14 +3,13 @@
 // closures get a robust loss; odometry edges do not.
 #pragma once
 
-#include <string>
-
 #include "cairn/graph/pose_graph.h"
+#include "cairn/solvers/solve_result.h"
 
 namespace cairn::frontend {
 
 struct OptimizeOptions {
-  std::string solver = "ceres";  // "ceres" (Levenberg-Marquardt) or "gn" (Gauss-Newton, IRLS)
+  SolverKind solver = SolverKind::kCeres;  // Levenberg-Marquardt, or Gauss-Newton (IRLS)
   int max_iterations = 50;
   // Cauchy scale on loop closures, in units of the edge's standard deviation.
   double robust_scale = 2.0;

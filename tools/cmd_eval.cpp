@@ -2,13 +2,13 @@
 #include <cstdio>
 #include <iomanip>
 #include <iostream>
-#include <sstream>
 
 #include "cairn/graph/graph_io.h"
 #include "cairn/graph/output_files.h"
 #include "cairn/frontend/trajectory.h"
 #include "tools/args.h"
 #include "tools/command.h"
+#include "tools/json.h"
 
 namespace cairn::tools {
 namespace {
@@ -53,9 +53,12 @@ int RunEval(int argc, char** argv) {
             << " segments\n";
   if (!json_path.empty()) {
     WriteFileAtomically(json_path, [&](std::ostream& o) {
-      o << std::setprecision(10) << "{\"ate_rmse\": " << e.ate_rmse << ", \"rpe_trans_rmse\": "
-        << e.rpe_trans_rmse << ", \"rpe_rot_rmse_deg\": " << e.rpe_rot_rmse_deg
-        << ", \"matched\": " << e.matched << "}\n";
+      Json j;
+      PutNumber(j, "ate_rmse", e.ate_rmse);
+      PutNumber(j, "rpe_trans_rmse", e.rpe_trans_rmse);
+      PutNumber(j, "rpe_rot_rmse_deg", e.rpe_rot_rmse_deg);
+      j["matched"] = e.matched;
+      o << DumpJson(j);
     });
   }
   return 0;

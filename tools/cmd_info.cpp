@@ -7,6 +7,7 @@
 #include "cairn/graph/initialization.h"
 #include "tools/args.h"
 #include "tools/command.h"
+#include "tools/json.h"
 
 namespace cairn::tools {
 namespace {
@@ -37,13 +38,17 @@ int RunInfo(int argc, char** argv) {
   const size_t components = ConnectedComponents(graph).size();
   const double chi2 = Chi2(graph);
   if (json) {
-    std::printf(
-        "{\"file\": \"%s\", \"dimension\": %d, \"vertices\": %zu, \"odometry_edges\": %zu, "
-        "\"loop_closures\": %zu, \"priors\": %zu, \"fixed\": %zu, \"components\": %zu, "
-        "\"chi2\": %.17g}\n",
-        path.c_str(), graph.dimension(), graph.vertices().size(),
-        graph.CountEdges(EdgeKind::kOdometry), graph.CountEdges(EdgeKind::kLoopClosure),
-        graph.CountEdges(EdgeKind::kPrior), graph.CountFixed(), components, chi2);
+    Json j;
+    j["file"] = path;
+    j["dimension"] = graph.dimension();
+    j["vertices"] = graph.vertices().size();
+    j["odometry_edges"] = graph.CountEdges(EdgeKind::kOdometry);
+    j["loop_closures"] = graph.CountEdges(EdgeKind::kLoopClosure);
+    j["priors"] = graph.CountEdges(EdgeKind::kPrior);
+    j["fixed"] = graph.CountFixed();
+    j["components"] = components;
+    PutNumber(j, "chi2", chi2);
+    std::fputs(DumpJson(j, /*one_line=*/true).c_str(), stdout);
     return 0;
   }
   std::printf("file            %s\n", path.c_str());

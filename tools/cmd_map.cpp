@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <stdexcept>
 
 #include "cairn/graph/graph_io.h"
 #include "cairn/graph/output_files.h"
@@ -32,74 +33,56 @@ void PrintErrors(const char* what, const frontend::TrajectoryErrors& e) {
             << std::defaultfloat;
 }
 
-int RunMap(int argc, char** argv) {
+struct MapArgs {
   std::string log_path, prefix, graph_path, reference_map, solver = "ceres";
   double resolution = 0.05, max_range = 0, kf_dist = 0.5, kf_angle_deg = 25;
   bool quiet = false;
-  ArgParser args("map LOG -o PREFIX [options]",
-                 "Builds a pose graph from a CARMEN laser log (FLASER/ROBOTLASER1 and ODOM lines,\n"
-                 "plain or gzip'd) using only the raw odometry and the ranges: scans are tracked\n"
-                 "against recent keyframes (correlative search, then point-to-line ICP), loop\n"
-                 "closures are verified by scan matching and added with a robust loss, and the\n"
-                 "graph is optimised as it grows. Writes PREFIX.pgm + PREFIX.yaml (ROS map_server),\n"
-                 "PREFIX.png, PREFIX_trajectory.svg (dead reckoning and result) and\n"
-                 "PREFIX_trajectory.tum (keyframes, the log's scan timestamps). When the log holds\n"
-                 "reference poses, prints the trajectory errors of dead reckoning and of the result.\n"
-                 "Stage timings go to stderr.");
-  args.Positional("LOG", &log_path, "CARMEN log (.log or .log.gz)");
-  args.Option("output", &prefix, "PREFIX", "output prefix (required)");
+};
+
+void DeclareOptions(ArgParser& args, MapArgs& a) {
+  args.Positional("LOG", &a.log_path, "CARMEN log (.log or .log.gz)");
+  args.Option("output", &a.prefix, "PREFIX", "output prefix (required)");
   args.Alias("-o", "output");
-  args.Option("graph", &graph_path, "OUT.g2o", "also write the optimised pose graph as g2o");
-  args.Option("resolution", &resolution, "M", "grid cell size in metres");
-  args.Option("solver", &solver, "NAME", "back-end: ceres (Levenberg-Marquardt) or gn (Gauss-Newton)");
-  args.Option("max-range", &max_range, "M", "readings at or above this mean no return (0: the log's largest)");
-  args.Option("keyframe-distance", &kf_dist, "M", "metres travelled between keyframes");
-  args.Option("keyframe-angle", &kf_angle_deg, "DEG", "degrees turned between keyframes");
-  args.Option("reference-map", &reference_map, "FILE.png",
+  args.Option("graph", &a.graph_path, "OUT.g2o", "also write the optimised pose graph as g2o");
+  args.Option("resolution", &a.resolution, "M", "grid cell size in metres");
+  args.Option("solver", &a.solver, "NAME", "back-end: ceres (Levenberg-Marquardt) or gn (Gauss-Newton)");
+  args.Option("max-range", &a.max_range, "M", "readings at or above this mean no return (0: the log's largest)");
+  args.Option("keyframe-distance", &a.kf_dist, "M", "metres travelled between keyframes");
+  args.Option("keyframe-angle", &a.kf_angle_deg, "DEG", "degrees turned between keyframes");
+  args.Option("reference-map", &a.reference_map, "FILE.png",
               "also draw the grid from the log's own poses, for comparison (never used by the front-end)");
-  args.Flag("quiet", &quiet, "do not report loop closures as they are accepted");
-  int code = 0;
-  if (!args.Parse(argc, argv, &code)) return code;
-  if (prefix.empty()) {
+  args.Flag("quiet", &a.quiet, "do not report loop closures as they are accepted");
+}
+
+// The front-end's options from the arguments; false (the error printed)
+// when one is out of range.
+bool MakeMapperOptions(const MapArgs& a, frontend::MapperOptions* mo) {
+  if (a.prefix.empty()) {
     PrintError("missing -o PREFIX");
-    return 2;
+    return false;
   }
-  if (solver != "ceres" && solver != "gn") {
-    PrintError("unknown solver '" + solver + "' (ceres or gn)");
-    return 2;
+  try {
+    mo->optimize.solver = ParseSolverKind(a.solver);
+  } catch (const std::invalid_argument& e) {
+    PrintError(e.what());
+    return false;
   }
-  if (!(resolution > 0) || !(kf_dist > 0) || !(kf_angle_deg > 0) || max_range < 0) {
+  if (!(a.resolution > 0) || !(a.kf_dist > 0) || !(a.kf_angle_deg > 0) || a.max_range < 0) {
     PrintError("resolution, keyframe distance and angle must be positive");
-    return 2;
+    return false;
   }
-  const auto t_all = Clock::now();
-  auto t = Clock::now();
-  const frontend::CarmenLog log = frontend::ReadCarmenLog(log_path);
-  const double t_read = Since(t);
-  if (log.scans.size() < 2) throw std::runtime_error(log_path + ": fewer than two laser scans");
+  mo->keyframe_distance = a.kf_dist;
+  mo->keyframe_angle = a.kf_angle_deg * M_PI / 180;
+  mo->max_range = a.max_range;
+  return true;
+}
 
-  frontend::MapperOptions mo;
-  mo.keyframe_distance = kf_dist;
-  mo.keyframe_angle = kf_angle_deg * M_PI / 180;
-  mo.max_range = max_range;
-  mo.optimize.solver = solver;
-  t = Clock::now();
-  const frontend::MapResult res = frontend::BuildPoseGraph(log, mo, quiet ? nullptr : &std::cerr);
-  const double t_graph = Since(t);
-
-  t = Clock::now();
-  frontend::GridOptions go;
-  go.resolution = resolution;
-  const frontend::OccupancyGrid grid = frontend::BuildOccupancyGrid(log, res.scan_poses, res.max_range, go);
-  const double t_grid = Since(t);
-  if (!reference_map.empty()) {
-    std::vector<SE2> ref_poses;
-    for (const auto& s : log.scans) ref_poses.push_back(s.reference);
-    const frontend::OccupancyGrid ref_grid = frontend::BuildOccupancyGrid(log, ref_poses, res.max_range, go);
-    WriteFileAtomically(reference_map, [&](std::ostream& o) { frontend::WritePng(ref_grid.ToGray(), o); });
-  }
-
-  t = Clock::now();
+// The grid (PGM, YAML, PNG), the keyframes' trajectory (TUM, SVG) and the
+// graph when asked; returns the trajectory.
+frontend::Trajectory WriteOutputs(const MapArgs& a, const frontend::CarmenLog& log,
+                                  const frontend::MapResult& res,
+                                  const frontend::OccupancyGrid& grid) {
+  const std::string& prefix = a.prefix;
   WriteFileAtomically(prefix + ".pgm", [&](std::ostream& o) { frontend::WritePgm(grid.ToTrinary(), o); });
   WriteFileAtomically(prefix + ".yaml", [&](std::ostream& o) { o << grid.Yaml(Basename(prefix) + ".pgm"); });
   WriteFileAtomically(prefix + ".png", [&](std::ostream& o) { frontend::WritePng(grid.ToGray(), o); });
@@ -115,21 +98,14 @@ int RunMap(int argc, char** argv) {
     WriteSvgPlot(o, {TrajectoryPanel({{"dead reckoning", "#d62728", res.dead_reckoning},
                                       {"optimised keyframes", "#1f77b4", kf_poses}})});
   });
-  if (!graph_path.empty()) WriteG2o(res.graph, graph_path);
-  const double t_write = Since(t);
+  if (!a.graph_path.empty()) WriteG2o(res.graph, a.graph_path);
+  return traj;
+}
 
-  const auto& st = res.stats;
-  std::cerr << log.scans.size() << " scans, " << res.keyframes.size() << " keyframes, "
-            << res.graph.CountEdges(EdgeKind::kOdometry) << " odometry edges, " << st.loop_accepted
-            << " loop closures accepted of " << st.loop_candidates << " candidates, "
-            << st.optimizations << " optimisations (" << solver << "), " << st.tracking_failures
-            << " scans fell back to odometry; odometry scale learned " << st.odometry_scale << "\n";
-  std::cerr << std::fixed << std::setprecision(2) << "time: read " << t_read << " s, matching "
-            << st.seconds_matching << " s (+ local maps " << st.seconds_local_map << " s), loop closure " << st.seconds_loops << " s, optimisation "
-            << st.seconds_optimizing << " s (graph total " << t_graph << " s), mapping " << t_grid
-            << " s, writing " << t_write << " s, total " << Since(t_all) << " s\n"
-            << std::defaultfloat;
-
+// When the log's poses are a reference (a corrected log), the errors of
+// dead reckoning and of the result against them.
+void ReportAgainstReference(const frontend::CarmenLog& log, const frontend::MapResult& res,
+                            const frontend::Trajectory& traj) {
   frontend::Trajectory ref, dr;
   for (size_t i = 0; i < log.scans.size(); ++i) {
     ref.Add(log.scans[i].timestamp, log.scans[i].reference, static_cast<long>(i));
@@ -148,11 +124,68 @@ int RunMap(int argc, char** argv) {
     PrintErrors("dead reckoning", frontend::EvaluateTrajectory(dr, ref));
     PrintErrors("result        ", frontend::EvaluateTrajectory(traj, ref));
   }
+}
+
+int RunMap(int argc, char** argv) {
+  MapArgs a;
+  ArgParser args("map LOG -o PREFIX [options]",
+                 "Builds a pose graph from a CARMEN laser log (FLASER/ROBOTLASER1 and ODOM lines,\n"
+                 "plain or gzip'd) using only the raw odometry and the ranges: scans are tracked\n"
+                 "against recent keyframes (correlative search, then point-to-line ICP), loop\n"
+                 "closures are verified by scan matching and added with a robust loss, and the\n"
+                 "graph is optimised as it grows. Writes PREFIX.pgm + PREFIX.yaml (ROS map_server),\n"
+                 "PREFIX.png, PREFIX_trajectory.svg (dead reckoning and result) and\n"
+                 "PREFIX_trajectory.tum (keyframes, the log's scan timestamps). When the log holds\n"
+                 "reference poses, prints the trajectory errors of dead reckoning and of the result.\n"
+                 "Stage timings go to stderr.");
+  DeclareOptions(args, a);
+  int code = 0;
+  if (!args.Parse(argc, argv, &code)) return code;
+  frontend::MapperOptions mo;
+  if (!MakeMapperOptions(a, &mo)) return 2;
+  const auto t_all = Clock::now();
+  auto t = Clock::now();
+  const frontend::CarmenLog log = frontend::ReadCarmenLog(a.log_path);
+  const double t_read = Since(t);
+  if (log.scans.size() < 2) throw std::runtime_error(a.log_path + ": fewer than two laser scans");
+
+  t = Clock::now();
+  const frontend::MapResult res = frontend::BuildPoseGraph(log, mo, a.quiet ? nullptr : &std::cerr);
+  const double t_graph = Since(t);
+
+  t = Clock::now();
+  frontend::GridOptions go;
+  go.resolution = a.resolution;
+  const frontend::OccupancyGrid grid = frontend::BuildOccupancyGrid(log, res.scan_poses, res.max_range, go);
+  const double t_grid = Since(t);
+  if (!a.reference_map.empty()) {
+    std::vector<SE2> ref_poses;
+    for (const auto& s : log.scans) ref_poses.push_back(s.reference);
+    const frontend::OccupancyGrid ref_grid = frontend::BuildOccupancyGrid(log, ref_poses, res.max_range, go);
+    WriteFileAtomically(a.reference_map, [&](std::ostream& o) { frontend::WritePng(ref_grid.ToGray(), o); });
+  }
+
+  t = Clock::now();
+  const frontend::Trajectory traj = WriteOutputs(a, log, res, grid);
+  const double t_write = Since(t);
+
+  const auto& st = res.stats;
+  std::cerr << log.scans.size() << " scans, " << res.keyframes.size() << " keyframes, "
+            << res.graph.CountEdges(EdgeKind::kOdometry) << " odometry edges, " << st.loop_accepted
+            << " loop closures accepted of " << st.loop_candidates << " candidates, "
+            << st.optimizations << " optimisations (" << a.solver << "), " << st.tracking_failures
+            << " scans fell back to odometry; odometry scale learned " << st.odometry_scale << "\n";
+  std::cerr << std::fixed << std::setprecision(2) << "time: read " << t_read << " s, matching "
+            << st.seconds_matching << " s (+ local maps " << st.seconds_local_map << " s), loop closure " << st.seconds_loops << " s, optimisation "
+            << st.seconds_optimizing << " s (graph total " << t_graph << " s), mapping " << t_grid
+            << " s, writing " << t_write << " s, total " << Since(t_all) << " s\n"
+            << std::defaultfloat;
+  ReportAgainstReference(log, res, traj);
   return 0;
 }
 
 }  // namespace
 
-CAIRN_COMMAND("map", "laser log to pose graph, occupancy grid and trajectory", RunMap);
+CAIRN_SOLVING_COMMAND("map", "laser log to pose graph, occupancy grid and trajectory", RunMap);
 
 }  // namespace cairn::tools

@@ -6,7 +6,6 @@
 #include <cstring>
 #include <exception>
 #include <fstream>
-#include <iterator>
 #include <iostream>
 #include <string>
 
@@ -53,11 +52,12 @@ void InitLogging(const char* argv0, bool verbose) {
 // pages when its tunable asks, but reads tunables only as a process starts:
 // so the commands that solve restart themselves once with it set (about
 // 25 ms, against 300 ms saved on city10000). CAIRN_NO_HUGEPAGES=1 (or a
-// kernel with huge pages off) keeps the process as it is.
+// kernel with huge pages off) keeps the process as it is. Which commands
+// solve, each says as it registers (CAIRN_SOLVING_COMMAND).
 void RestartWithHugePages(char** argv) {
-  static const char* const kSolving[] = {"optimize", "compare", "map", "calibrate"};
-  if (!argv[1] || std::none_of(std::begin(kSolving), std::end(kSolving),
-                               [&](const char* c) { return !std::strcmp(c, argv[1]); }))
+  if (!argv[1] || std::none_of(Commands().begin(), Commands().end(), [&](const Command& c) {
+        return c.solves && c.name == argv[1];
+      }))
     return;
   if (std::getenv("CAIRN_NO_HUGEPAGES")) return;
   const char* tunables = std::getenv("GLIBC_TUNABLES");

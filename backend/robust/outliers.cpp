@@ -375,8 +375,8 @@ void RunGnc(RejectionState& s) {
 
 OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolver& solve,
                                               const OutlierRejectionOptions& options) {
-  if (!(options.mu_factor > 1)) throw std::invalid_argument("GNC's mu factor must exceed 1");
-  if (options.max_rounds < 1) throw std::invalid_argument("GNC needs at least one round");
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
   const double initial_chi2 = Chi2(graph);
   RejectionState s(graph, solve, options);
   for (size_t k = 0; k < graph.edges().size(); ++k)

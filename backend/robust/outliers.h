@@ -56,6 +56,10 @@ struct OutlierRejectionOptions {
   bool readmit = true;
   double readmit_reach = 100;
   bool verbose = false;
+
+  // False, with *error saying which option and why, for values out of
+  // range; SolveRejectingOutliers throws std::invalid_argument with it.
+  bool IsValid(std::string* error) const;
 };
 
 struct OutlierRejectionResult {

@@ -213,6 +213,8 @@ ceres::Solver::Options MakeSolverOptions(const PoseGraph& graph, const CeresOpti
 }
 
 SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
   const auto start = std::chrono::steady_clock::now();
   SolveResult result;
   result.solver = "ceres";

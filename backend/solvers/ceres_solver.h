@@ -25,6 +25,11 @@ struct CeresOptions : SolverOptions {
   // matrices have dense 6x6 blocks; planar graphs factor as fast simplicial.
   enum class SparseLibrary { kAuto, kSuiteSparse, kEigen, kCxSparse };
 
+  CeresOptions() = default;
+  // The shared settings (iterations, tolerances, threads, loss) taken from
+  // `common`, the Ceres ones at their defaults.
+  explicit CeresOptions(const SolverOptions& common) : SolverOptions(common) {}
+
   Method method = Method::kLevenbergMarquardt;
   SparseLibrary sparse_library = SparseLibrary::kAuto;
   bool jacobi_scaling = true;
@@ -38,6 +43,10 @@ struct CeresOptions : SolverOptions {
   // its postordering) rather than Ceres pre-permuting the Jacobian's columns.
   bool use_postordering = false;
   double max_time_s = 1e9;
+
+  // SolverOptions::IsValid, and the trust-region settings and time limit
+  // within the ranges Ceres accepts.
+  bool IsValid(std::string* error) const;
 };
 
 // The sparse Cholesky factor of a graph's normal matrix as SuiteSparse's

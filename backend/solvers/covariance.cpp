@@ -13,7 +13,7 @@ std::vector<Eigen::MatrixXd> MarginalCovariances(const PoseGraph& graph,
                                                  SolverKind solver,
                                                  const RobustLoss& loop_closure_loss) {
   IncrementalOptions options;
-  options.loop_closure_loss = loop_closure_loss;
+  options.ceres.loop_closure_loss = options.gauss_newton.loop_closure_loss = loop_closure_loss;
   IncrementalOptimizer optimizer(graph, options);
   return optimizer.MarginalCovariances(ids, solver);
 }

@@ -768,6 +768,8 @@ struct GaussNewtonProblem::TrialStep {
 };
 
 SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
   const auto t0 = std::chrono::steady_clock::now();
   SerialLinearAlgebraScope serial;  // the factorisations' libraries on this thread alone
   SolveState s(options, t0);

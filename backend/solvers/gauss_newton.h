@@ -24,6 +24,11 @@ class ThreadPool;  // backend/linear, internal
 // The common options (iterations, tolerances, threads, progress, robust
 // loss for loop closures) mean the same as for the Ceres path.
 struct GaussNewtonOptions : SolverOptions {
+  GaussNewtonOptions() = default;
+  // The shared settings taken from `common`, the Gauss-Newton ones at their
+  // defaults.
+  explicit GaussNewtonOptions(const SolverOptions& common) : SolverOptions(common) {}
+
   // Levenberg-Marquardt damping (times diag(H)) that the fallback starts
   // from once a pure Gauss-Newton step fails; it then follows Ceres's
   // trust-region schedule, whose radius is 1/damping (Ceres starts ours at
@@ -33,6 +38,9 @@ struct GaussNewtonOptions : SolverOptions {
   // Once chi2 falls by less than 2% a step, try the last factorisation of
   // H with the new gradient before factorising again (see Solve).
   bool reuse_factorization = true;
+
+  // SolverOptions::IsValid, and a damping that is a number >= 0.
+  bool IsValid(std::string* error) const;
 };
 
 // A least-squares problem in the shape of ceres::Problem, for our solver.

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <limits>
+#include <stdexcept>
 #include <string>
 
 #include "cairn/graph/chi2.h"
@@ -10,6 +11,8 @@
 
 namespace cairn {
 SolveResult SolveGaussNewton(PoseGraph& graph, const GaussNewtonOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) throw std::invalid_argument(why);
   const auto start = std::chrono::steady_clock::now();
   if (const auto bad = FirstNonFiniteVertex(graph)) {
     SolveResult result;

@@ -35,7 +35,11 @@ IncrementalOptimizer::IncrementalOptimizer(int dimension, IncrementalOptions opt
     : graph_(dimension),
       options_(std::move(options)),
       manifold_(dimension == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold()),
-      loop_closure_loss_(MakeLoss(options_.loop_closure_loss)) {}
+      ceres_loss_(MakeLoss(options_.ceres.loop_closure_loss)),
+      gn_loss_(MakeLoss(options_.gauss_newton.loop_closure_loss)) {
+  std::string why;
+  if (!options_.IsValid(&why)) throw std::invalid_argument(why);
+}
 
 IncrementalOptimizer::IncrementalOptimizer(const PoseGraph& graph, IncrementalOptions options)
     : IncrementalOptimizer(graph.dimension(), std::move(options)) {
@@ -102,7 +106,7 @@ void IncrementalOptimizer::SyncCeres() {
       ceres_->AddParameterBlock(b, graph_.ParameterSize(), manifold_.get());
     }
     ceres::LossFunction* loss =
-        e.kind == EdgeKind::kLoopClosure ? loop_closure_loss_.get() : nullptr;
+        e.kind == EdgeKind::kLoopClosure ? ceres_loss_.get() : nullptr;
     ceres_->AddResidualBlock(MakeCostFunction(graph_, e), loss, blocks);
   }
   // The gauge may move: a prior or a FIX vertex added later frees it.
@@ -133,8 +137,8 @@ void IncrementalOptimizer::SyncGaussNewton() {
       gn_->AddParameterBlock(v.x.data(), graph_.ParameterSize(), manifold_.get());
       blocks.push_back(v.x.data());
     }
-    ceres::LossFunction* loss = e.kind == EdgeKind::kLoopClosure && loop_closure_loss_
-                                    ? new BorrowedLoss(loop_closure_loss_.get())
+    ceres::LossFunction* loss = e.kind == EdgeKind::kLoopClosure && gn_loss_
+                                    ? new BorrowedLoss(gn_loss_.get())
                                     : nullptr;
     gn_->AddResidualBlock(MakeCostFunction(graph_, e), loss, blocks);
   }
@@ -172,9 +176,7 @@ SolveResult IncrementalOptimizer::Optimize(SolverKind solver) {
   if (solver == SolverKind::kGaussNewton) {
     SyncGaussNewton();
     const double sync_s = Seconds(start);
-    GaussNewtonOptions o = options_.gauss_newton;
-    o.loop_closure_loss = options_.loop_closure_loss;
-    SolveResult result = gn_->Solve(o);
+    SolveResult result = gn_->Solve(options_.gauss_newton);
     gn_ordering_ = gn_->Ordering();
     if (gn_reorder_) ++gn_reorderings_;
     if (gn_->LastAnalysisExtended()) ++gn_extensions_;
@@ -182,7 +184,8 @@ SolveResult IncrementalOptimizer::Optimize(SolverKind solver) {
     result.solver = "gn-incremental";
     result.setup_time_s += sync_s;
     result.time_s += sync_s;
-    if (options_.loop_closure_loss.kind != RobustLoss::kNone) result.final_chi2 = Chi2(graph_);
+    if (options_.gauss_newton.loop_closure_loss.kind != RobustLoss::kNone)
+      result.final_chi2 = Chi2(graph_);
     return result;
   }
 

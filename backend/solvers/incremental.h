@@ -24,9 +24,8 @@
 namespace cairn {
 
 struct IncrementalOptions {
-  // The robust loss on loop closures (both solvers); the one inside `ceres`
-  // and `gauss_newton` is ignored.
-  RobustLoss loop_closure_loss;
+  // Each solver's own options, its robust loss on loop closures included:
+  // each problem is built with its solver's loss (both none by default).
   CeresOptions ceres;
   GaussNewtonOptions gauss_newton;
   // Gauss-Newton: appending new poses to an old ordering slowly costs fill;
@@ -34,6 +33,10 @@ struct IncrementalOptions {
   // once the variables have grown by this fraction since the last one (and
   // whenever the held vertices change).
   double reorder_growth = 0.1;
+
+  // Both solvers' options are valid and reorder_growth is >= 0; the
+  // optimizer's constructor throws std::invalid_argument otherwise.
+  bool IsValid(std::string* error) const;
 };
 
 // A pose graph that grows and is re-optimised in place. The vertices' arrays
@@ -96,7 +99,9 @@ class IncrementalOptimizer {
   PoseGraph graph_;
   IncrementalOptions options_;
   std::unique_ptr<ceres::Manifold> manifold_;
-  std::unique_ptr<ceres::LossFunction> loop_closure_loss_;
+  // Each solver's loss on loop closures (null: none), shared by its edges.
+  std::unique_ptr<ceres::LossFunction> ceres_loss_;
+  std::unique_ptr<ceres::LossFunction> gn_loss_;
 
   std::unique_ptr<ceres::Problem> ceres_;
   size_t ceres_edges_ = 0;  // edges already in the Ceres problem

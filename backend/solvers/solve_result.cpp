@@ -1,53 +1,54 @@
 #include "cairn/solvers/solve_result.h"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <ostream>
 #include <stdexcept>
 
-namespace cairn {
+#include <nlohmann/json.hpp>
 
-std::string JsonString(const std::string& s) {
-  std::string out = "\"";
-  for (unsigned char c : s) {
-    switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
-      case '\r': out += "\\r"; break;
-      default:
-        if (c < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof buf, "\\u%04x", c);
-          out += buf;
-        } else {
-          out += static_cast<char>(c);
-        }
-    }
-  }
-  return out + "\"";
-}
+namespace cairn {
 
 namespace {
 
-// JSON has no NaN or infinity; null keeps the file parseable.
-std::string JsonNumber(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
+using Json = nlohmann::ordered_json;
+
+// JSON has no infinity or NaN: null, and a note beside it saying which
+// (docs/api.md, "JSON output").
+void PutNumber(Json& object, const std::string& key, double v) {
+  if (std::isfinite(v)) {
+    object[key] = v;
+    return;
+  }
+  object[key] = nullptr;
+  object[key + "_note"] = std::string("not finite (") +
+                          (std::isnan(v) ? "nan" : v > 0 ? "inf" : "-inf") + ")";
 }
 
-bool LooksNumeric(const std::string& s) {
-  if (s.empty()) return false;
+// A context value: an integer or a finite number when the whole text is
+// one, else the text.
+Json ContextValue(const std::string& s) {
+  if (s.empty() || s.find_first_of("xXnN") != std::string::npos) return s;
   char* end = nullptr;
+  errno = 0;
+  const long long i = std::strtoll(s.c_str(), &end, 10);
+  if (*end == '\0' && errno == 0) return i;
   const double v = std::strtod(s.c_str(), &end);
-  return *end == '\0' && std::isfinite(v) && s.find_first_of("xXnN") == std::string::npos;
+  if (*end == '\0' && std::isfinite(v)) return v;
+  return s;
 }
 
 }  // namespace
+
+SolverKind ParseSolverKind(const std::string& text) {
+  if (text == "ceres") return SolverKind::kCeres;
+  if (text == "gn") return SolverKind::kGaussNewton;
+  throw std::invalid_argument("unknown solver '" + text + "' (expected ceres or gn)");
+}
+
+const char* ToString(SolverKind kind) { return kind == SolverKind::kCeres ? "ceres" : "gn"; }
 
 RobustLoss ParseRobustLoss(const std::string& text) {
   if (text.empty() || text == "none") return {};
@@ -87,33 +88,36 @@ std::string ToString(const RobustLoss& loss) {
 
 void WriteReportJson(const SolveResult& r, std::ostream& out,
                      const std::vector<std::pair<std::string, std::string>>& context) {
-  out << "{\n";
-  for (const auto& [key, value] : context)
-    out << "  " << JsonString(key) << ": " << (LooksNumeric(value) ? value : JsonString(value))
-        << ",\n";
-  out << "  \"solver\": " << JsonString(r.solver) << ",\n"
-      << "  \"linear_solver\": " << JsonString(r.linear_solver) << ",\n"
-      << "  \"initial_chi2\": " << JsonNumber(r.initial_chi2) << ",\n"
-      << "  \"final_chi2\": " << JsonNumber(r.final_chi2) << ",\n"
-      << "  \"iterations\": " << r.iterations << ",\n"
-      << "  \"time_s\": " << JsonNumber(r.time_s) << ",\n"
-      << "  \"setup_time_s\": " << JsonNumber(r.setup_time_s) << ",\n"
-      << "  \"linearize_time_s\": " << JsonNumber(r.linearize_time_s) << ",\n"
-      << "  \"linear_solver_time_s\": " << JsonNumber(r.linear_solver_time_s) << ",\n"
-      << "  \"termination\": " << JsonString(r.termination) << ",\n"
-      << "  \"message\": " << JsonString(r.message) << ",\n"
-      << "  \"converged\": " << (r.converged ? "true" : "false") << ",\n"
-      << "  \"usable\": " << (r.usable ? "true" : "false") << ",\n"
-      << "  \"trace\": [";
-  for (size_t i = 0; i < r.trace.size(); ++i) {
-    const IterationRecord& t = r.trace[i];
-    out << (i ? ",\n" : "\n") << "    {\"iteration\": " << t.iteration
-        << ", \"chi2\": " << JsonNumber(t.chi2) << ", \"step_norm\": " << JsonNumber(t.step_norm)
-        << ", \"time_s\": " << JsonNumber(t.time_s)
-        << ", \"accepted\": " << (t.accepted ? "true" : "false")
-        << ", \"linear_solver_time_s\": " << JsonNumber(t.linear_solver_time_s) << "}";
+  Json j = Json::object();
+  for (const auto& [key, value] : context) j[key] = ContextValue(value);
+  j["solver"] = r.solver;
+  j["linear_solver"] = r.linear_solver;
+  PutNumber(j, "initial_chi2", r.initial_chi2);
+  PutNumber(j, "final_chi2", r.final_chi2);
+  j["iterations"] = r.iterations;
+  PutNumber(j, "time_s", r.time_s);
+  PutNumber(j, "setup_time_s", r.setup_time_s);
+  PutNumber(j, "linearize_time_s", r.linearize_time_s);
+  PutNumber(j, "linear_solver_time_s", r.linear_solver_time_s);
+  j["termination"] = r.termination;
+  j["message"] = r.message;
+  j["converged"] = r.converged;
+  j["usable"] = r.usable;
+  Json trace = Json::array();
+  for (const IterationRecord& t : r.trace) {
+    Json it = Json::object();
+    it["iteration"] = t.iteration;
+    PutNumber(it, "chi2", t.chi2);
+    PutNumber(it, "step_norm", t.step_norm);
+    PutNumber(it, "time_s", t.time_s);
+    it["accepted"] = t.accepted;
+    PutNumber(it, "linear_solver_time_s", t.linear_solver_time_s);
+    trace.push_back(std::move(it));
   }
-  out << (r.trace.empty() ? "]\n" : "\n  ]\n") << "}\n";
+  j["trace"] = std::move(trace);
+  // Text that is not UTF-8 (a file name in another encoding) is written
+  // with replacement characters rather than refused.
+  out << j.dump(2, ' ', false, Json::error_handler_t::replace) << "\n";
 }
 
 std::string FormatIteration(const IterationRecord& t) {

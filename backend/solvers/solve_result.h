@@ -1,5 +1,5 @@
-// What every solver of a pose graph (Ceres here, the hand-written
-// Gauss-Newton later) accepts and returns, so that `cairn optimize`, the
+// What every solver of a pose graph (the Ceres path and cairn's own
+// Gauss-Newton path) accepts and returns, so that `cairn optimize`, the
 // tests and the benchmarks treat them alike. Chi-squared is g2o's throughout:
 // the sum over edges of e^T Omega e, i.e. twice Ceres's cost.
 #pragma once
@@ -11,11 +11,16 @@
 
 namespace cairn {
 
-// A robust loss applied to loop closures only: odometry and priors are
-// trusted, wrong loop closures are what robust losses are for.
 // Which of the two solvers runs: the Ceres path or cairn's own Gauss-Newton.
 enum class SolverKind { kCeres, kGaussNewton };
 
+// Parses "ceres" and "gn" (the names `--solver` takes); throws
+// std::invalid_argument naming the bad text.
+SolverKind ParseSolverKind(const std::string& text);
+const char* ToString(SolverKind kind);
+
+// A robust loss applied to loop closures only: odometry and priors are
+// trusted, wrong loop closures are what robust losses are for.
 struct RobustLoss {
   // kDcs: dynamic covariance scaling (Agarwal et al. 2013), the kernel made
   // for pose graphs; its width PHI is on the squared error (chi2), as in the
@@ -44,6 +49,11 @@ struct SolverOptions {
   // One progress line per iteration on stderr.
   bool verbose = false;
   RobustLoss loop_closure_loss;
+
+  // False, with *error (if not null) saying which option and why, when a
+  // value is out of range; the solvers check it and throw
+  // std::invalid_argument with that message.
+  bool IsValid(std::string* error) const;
 };
 
 struct IterationRecord {
@@ -74,13 +84,11 @@ struct SolveResult {
 
 // Writes the result as one JSON object: the fields above (the trace as an
 // array of objects), preceded by `context` (e.g. input file, sizes), whose
-// values are written as JSON strings unless they parse as numbers.
+// values are written as JSON strings unless they parse as numbers. A number
+// that is not finite is written as null, with a string "<key>_note" after it
+// saying which ("not finite (inf)"): JSON has no infinity or NaN.
 void WriteReportJson(const SolveResult& result, std::ostream& out,
                      const std::vector<std::pair<std::string, std::string>>& context = {});
-
-// `s` as a JSON string: quoted, with quotes, backslashes and control
-// characters escaped.
-std::string JsonString(const std::string& s);
 
 // The one-line progress format shared by the solvers (no trailing newline).
 std::string FormatIteration(const IterationRecord& record);

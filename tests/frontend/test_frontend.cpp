@@ -312,19 +312,15 @@ PoseGraph SquareLoop() {
 }
 
 TEST(Optimize, BothSolversCloseTheLoopDespiteAFalseClosure) {
-  for (const char* solver : {"ceres", "gn"}) {
+  for (SolverKind solver : {SolverKind::kCeres, SolverKind::kGaussNewton}) {
     PoseGraph g = SquareLoop();
     OptimizeOptions o;
     o.solver = solver;
     const OptimizeSummary s = OptimizeGraph(g, o);
-    EXPECT_LT(s.final_chi2, s.initial_chi2) << solver;
+    EXPECT_LT(s.final_chi2, s.initial_chi2) << ToString(solver);
     const SE2 end = ToSE2(g.vertex(16).x);
-    EXPECT_LT(end.translation().norm(), 0.1) << solver;
+    EXPECT_LT(end.translation().norm(), 0.1) << ToString(solver);
   }
-  PoseGraph g = SquareLoop();
-  OptimizeOptions bad;
-  bad.solver = "nope";
-  EXPECT_THROW(OptimizeGraph(g, bad), std::invalid_argument);
 }
 
 }  // namespace

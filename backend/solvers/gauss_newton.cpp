@@ -667,7 +667,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   Workspace& w = *ws_;
   result.linear_solver = ToString(w.linear_solver);
   if ((w.linear_solver == CholeskyKind::kSupernodalOrSimplicial ||
-       w.linear_solver == CholeskyKind::kTwoHalves) && w.cholesky)
+       w.linear_solver == CholeskyKind::kTwoHalves) && w.cholesky && w.n > 0)
     result.linear_solver += ": " + w.cholesky->Method();
   auto progress = [&](const IterationRecord& it) {
     if (options.verbose) std::fprintf(stderr, "%s\n", FormatIteration(it).c_str());

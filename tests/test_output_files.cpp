@@ -130,6 +130,20 @@ TEST_F(OutputFiles, FifoIsWrittenInPlace) {
   EXPECT_TRUE(Others({"pipe"}).empty());
 }
 
+TEST_F(OutputFiles, OwnDescriptorIsWrittenThroughAtItsOffset) {
+  // As /dev/stdout under `>>`: a link of our own to /proc/self/fd/N.
+  const std::string log = Path("log.txt"), link = Path("stdout");
+  Put(log, "kept\n");
+  const int fd = ::open(log.c_str(), O_WRONLY | O_APPEND);
+  ASSERT_GE(fd, 0);
+  fs::create_symlink("/proc/self/fd/" + std::to_string(fd), link);
+  WriteFileAtomically(link, Text("appended\n"));
+  ::close(fd);
+  EXPECT_EQ(Slurp(log), "kept\nappended\n");
+  EXPECT_TRUE(fs::is_symlink(link));
+  EXPECT_TRUE(Others({"log.txt", "stdout"}).empty());
+}
+
 TEST_F(OutputFiles, SymlinkOutputUpdatesItsTargetAndStaysALink) {
   fs::create_directories(dir_ / "real");
   const std::string target = Path("real/target.g2o"), link = Path("link.g2o");

@@ -333,6 +333,18 @@ struct OutputSet::Output {
   }
 
   void WriteInPlace() {
+    // One of our own descriptors (/dev/stdout, /dev/fd/N): written through
+    // it, at its offset and with its flags (a shell's >> appends).
+    const std::string own = "/proc/" + std::to_string(::getpid()) + "/fd/";
+    if (target.final_path.rfind(own, 0) == 0) {
+      char* end = nullptr;
+      const long n = std::strtol(target.final_path.c_str() + own.size(), &end, 10);
+      if (end && *end == '\0' && n >= 0 && n <= INT_MAX) {
+        if (!WriteAll(static_cast<int>(n), contents.data(), contents.size()))
+          Fail(path, "write failed", errno ? errno : EIO);
+        return;
+      }
+    }
     const int fd = ::open(path.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
     if (fd < 0) Fail(path, "cannot open for writing", errno);
     const bool ok = WriteAll(fd, contents.data(), contents.size());

@@ -7,6 +7,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -128,6 +129,25 @@ TEST_F(OutputFiles, FifoIsWrittenInPlace) {
   ASSERT_EQ(::lstat(fifo.c_str(), &st), 0);
   EXPECT_TRUE(S_ISFIFO(st.st_mode));
   EXPECT_TRUE(Others({"pipe"}).empty());
+}
+
+TEST_F(OutputFiles, DeviceIsWrittenInPlace) {
+  // A null device of the test's own (as root), never the machine's /dev/null.
+  const std::string null = Path("null");
+  if (::mknod(null.c_str(), S_IFCHR | 0666, makedev(1, 3)) != 0)
+    GTEST_SKIP() << "cannot make a device node here (not root)";
+  const int probe = ::open(null.c_str(), O_WRONLY);
+  if (probe < 0) GTEST_SKIP() << "device nodes do not open here (a nodev mount)";
+  ::close(probe);
+  WriteFileAtomically(null, Text("report\n"));
+  struct stat st {};
+  ASSERT_EQ(::lstat(null.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISCHR(st.st_mode));
+  EXPECT_TRUE(Others({"null"}).empty());
+  OutputSet twice;  // a device may take two outputs
+  twice.AddOutput(null);
+  twice.AddOutput(null);
+  EXPECT_NO_THROW(twice.Check());
 }
 
 TEST_F(OutputFiles, OwnDescriptorIsWrittenThroughAtItsOffset) {

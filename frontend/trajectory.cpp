@@ -106,20 +106,23 @@ Trajectory ReadTrajectory(const std::string& path) {
   return FromTum(path, in);
 }
 
+void WriteTum(const Trajectory& traj, std::ostream& out) {
+  const std::streamsize precision = out.precision(17);
+  out << "# timestamp x y z qx qy qz qw\n";
+  for (size_t i = 0; i < traj.size(); ++i) {
+    const SE2& p = traj.poses[i];
+    const double h = 0.5 * p.theta();
+    if (!traj.stamp_texts[i].empty())
+      out << traj.stamp_texts[i];
+    else
+      out << traj.stamps[i];
+    out << ' ' << p.x() << ' ' << p.y() << " 0 0 0 " << std::sin(h) << ' ' << std::cos(h) << '\n';
+  }
+  out.precision(precision);
+}
+
 void WriteTum(const Trajectory& traj, const std::string& path) {
-  WriteFileAtomically(path, [&](std::ostream& out) {
-    out << "# timestamp x y z qx qy qz qw\n" << std::setprecision(17);
-    for (size_t i = 0; i < traj.size(); ++i) {
-      const SE2& p = traj.poses[i];
-      const double h = 0.5 * p.theta();
-      if (!traj.stamp_texts[i].empty())
-        out << traj.stamp_texts[i];
-      else
-        out << traj.stamps[i];
-      out << ' ' << p.x() << ' ' << p.y() << " 0 0 0 " << std::sin(h) << ' ' << std::cos(h)
-          << '\n';
-    }
-  });
+  WriteFileAtomically(path, [&](std::ostream& out) { WriteTum(traj, out); });
 }
 
 std::vector<std::pair<size_t, size_t>> Associate(const Trajectory& est, const Trajectory& ref) {

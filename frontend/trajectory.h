@@ -4,6 +4,7 @@
 // relative pose error over fixed-length segments.
 #pragma once
 
+#include <iosfwd>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,7 @@ Trajectory ReadTrajectory(const std::string& path);
 
 // TUM text: "timestamp x y z qx qy qz qw" with z = 0 and a yaw quaternion.
 void WriteTum(const Trajectory& traj, const std::string& path);
+void WriteTum(const Trajectory& traj, std::ostream& out);  // for an OutputSet
 
 struct TrajectoryErrors {
   size_t matched = 0;

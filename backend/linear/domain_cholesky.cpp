@@ -443,6 +443,8 @@ class DomainCholmod final : public SparseCholesky {
   }
   std::string Method() const override {
     if (whole_) return "not split, " + whole_->Method();
+    // An empty problem is never analysed: nothing to factorise.
+    if (!half_[0].factor || !half_[1].factor) return "not analysed";
     auto method = [](const Half& h) { return h.factor->is_super ? "supernodal" : "simplicial"; };
     return std::string("two halves at once (") + method(half_[0]) + ", " + method(half_[1]) +
            "), " + std::to_string(top_.size()) + " separator unknowns";

@@ -116,6 +116,10 @@ void WriteReportJson(const SolveResult& r, std::ostream& out,
   out << (r.trace.empty() ? "]\n" : "\n  ]\n") << "}\n";
 }
 
+bool IsUsableEstimate(double initial_objective, double final_objective) {
+  return std::isfinite(final_objective) && final_objective <= initial_objective;
+}
+
 std::string FormatIteration(const IterationRecord& t) {
   char buf[160];
   std::snprintf(buf, sizeof buf, "iter %3d  chi2 %.9e  |step| %.3e  %s  %8.3f s", t.iteration,

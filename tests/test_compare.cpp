@@ -28,7 +28,7 @@ const Case kCases[] = {
     // From its own vertices MIT has local minima: peers stop anywhere from
     // 526.3 to 5153, and both our paths must stop at the same one. From the
     // spanning tree both reach the best known optimum.
-    {"g2o/2d/MIT.g2o", "", 5153},
+    {"g2o/2d/MIT.g2o", "--init file", 5153},
     {"g2o/2d/MIT.g2o", "--init spanning-tree", 41.1633},
 };
 

@@ -36,7 +36,7 @@ double TimeToReach(const SolveResult& r, double chi2) {
 }
 
 int RunCompare(int argc, char** argv) {
-  std::string path, json, robust = "none", linear_solver = "auto", sparse = "auto", init = "file";
+  std::string path, json, robust = "none", linear_solver = "auto", sparse = "auto", init = "auto";
   bool quiet = false, no_chord = false;
   double tol_m = 1e-4, tol_deg = 1e-3, tol_chi2 = 1e-6;
   SolverOptions common;
@@ -73,9 +73,10 @@ int RunCompare(int argc, char** argv) {
               "gn: Levenberg-Marquardt damping (times diag H) the fallback starts from, 1/radius as in Ceres");
   args.Option("sparse", &sparse, "LIB", "ceres: auto, suitesparse, eigen or cxsparse");
   args.Option("init", &init, "METHOD",
-              "initial estimate for both: file (the file's vertices), odometry (chained "
-              "odometry), spanning-tree (chained along the most certain edges) or chordal "
-              "(chordal relaxation of the rotations, then linear translations)");
+              "initial estimate for both: auto (the default: the file's vertices, or the "
+              "chordal relaxation when its chi2 is lower), file (the file's vertices), odometry "
+              "(chained odometry), spanning-tree (chained along the most certain edges) or "
+              "chordal (chordal relaxation of the rotations, then linear translations)");
   args.Flag("gn-no-chord", &no_chord,
             "gn: factorise at every step (no steps with an earlier factorisation)");
   args.Flag("quiet", &quiet, "no per-iteration progress lines");
@@ -141,6 +142,7 @@ int RunCompare(int argc, char** argv) {
 
   std::printf("%s: %zu vertices, %zu edges\n", path.c_str(), input.vertices().size(),
               input.edges().size());
+  if (init_method == InitMethod::kAuto) std::printf("%s\n", DescribeAutoChoice(init_report).c_str());
   std::printf("%-24s %16s %16s\n", "", "ceres", "gn");
   std::printf("%-24s %16.10g %16.10g\n", "initial chi2", c.initial_chi2, g.initial_chi2);
   std::printf("%-24s %16.10g %16.10g\n", "final chi2", c.final_chi2, g.final_chi2);
@@ -176,7 +178,17 @@ int RunCompare(int argc, char** argv) {
       std::snprintf(init_buf, sizeof init_buf,
                     "{\"method\": \"%s\", \"time_s\": %.6f, \"chi2\": %.17g}",
                     ToString(init_method), init_report.time_s, init_report.chi2);
-      os << "{\"file\": \"" << path << "\", \"init\": " << init_buf
+      std::string init_json = init_buf;
+      if (init_method == InitMethod::kAuto) {
+        char chordal[32] = "null", more[160];  // null: its systems were singular
+        if (!std::isnan(init_report.chordal_chi2))
+          std::snprintf(chordal, sizeof chordal, "%.17g", init_report.chordal_chi2);
+        std::snprintf(more, sizeof more,
+                      ", \"chosen\": \"%s\", \"file_chi2\": %.17g, \"chordal_chi2\": %s}",
+                      ToString(init_report.chosen), init_report.file_chi2, chordal);
+        init_json = init_json.substr(0, init_json.size() - 1) + more;
+      }
+      os << "{\"file\": \"" << path << "\", \"init\": " << init_json
          << ", \"ceres\": " << SolverJson(c)
          << ", \"gn\": " << SolverJson(g) << ", " << buf << "}\n";
     });

@@ -49,7 +49,7 @@ std::string CovarianceJson(const std::vector<int64_t>& ids, const std::vector<Ei
 
 int RunOptimize(int argc, char** argv) {
   std::string in, out, solver = "ceres", robust = "none", method = "lm", sparse = "auto";
-  std::string init = "file";
+  std::string init = "auto";
   std::string report, plot, linear_solver = "auto";
   bool quiet = false, strict = false, no_jacobi = false;
   // The common options (SolverOptions) live in the Ceres struct; --solver gn
@@ -139,9 +139,10 @@ int RunOptimize(int argc, char** argv) {
             "with --reject-outliers: skip the check after GNC (kept loop closures whose "
             "deletion would lower chi2 by more than the threshold are rejected too)");
   args.Option("init", &init, "METHOD",
-              "initial estimate: file (the file's vertices), odometry (chained odometry), "
-              "spanning-tree (chained along the most certain edges) or chordal (chordal "
-              "relaxation of the rotations, then linear translations)");
+              "initial estimate: auto (the default: the file's vertices, or the chordal "
+              "relaxation when its chi2 is lower), file (the file's vertices), odometry "
+              "(chained odometry), spanning-tree (chained along the most certain edges) or "
+              "chordal (chordal relaxation of the rotations, then linear translations)");
   args.Flag("quiet", &quiet, "no progress lines and no summary");
   args.Flag("strict", &strict, "refuse tags cairn does not know instead of skipping them");
   int code = 0;
@@ -205,6 +206,7 @@ int RunOptimize(int argc, char** argv) {
   if (!quiet && init_method != InitMethod::kFile)
     std::fprintf(stderr, "initial estimate: %s, %.4f s, chi2 %.10g\n", ToString(init_method),
                  init_report.time_s, init_report.chi2);
+  if (!quiet && init_method == InitMethod::kAuto) std::printf("%s\n", DescribeAutoChoice(init_report).c_str());
 
   std::vector<VertexPair> rejected;
   SolveResult result;
@@ -275,7 +277,7 @@ int RunOptimize(int argc, char** argv) {
   }
 
   if (!report.empty()) {
-    const std::vector<std::pair<std::string, std::string>> context = {
+    std::vector<std::pair<std::string, std::string>> context = {
         {"input", in},
         {"output", out},
         {"dimension", std::to_string(graph.dimension())},
@@ -290,6 +292,11 @@ int RunOptimize(int argc, char** argv) {
         {"init_time_s", Number(init_report.time_s)},
         {"init_chi2", Number(init_report.chi2)},
     };
+    if (init_method == InitMethod::kAuto) {
+      context.emplace_back("init_chosen", ToString(init_report.chosen));
+      context.emplace_back("init_file_chi2", Number(init_report.file_chi2));
+      context.emplace_back("init_chordal_chi2", Number(init_report.chordal_chi2));
+    }
     std::ostringstream json;
     WriteReportJson(result, json, context);
     std::string text = json.str();

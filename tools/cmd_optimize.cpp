@@ -49,7 +49,7 @@ std::string CovarianceJson(const std::vector<int64_t>& ids, const std::vector<Ei
 
 int RunOptimize(int argc, char** argv) {
   std::string in, out, solver = "ceres", robust = "none", method = "lm", sparse = "auto";
-  std::string init = "auto";
+  std::string init;  // auto, or file with --reject-outliers
   std::string report, plot, linear_solver = "auto";
   bool quiet = false, strict = false, no_jacobi = false;
   // The common options (SolverOptions) live in the Ceres struct; --solver gn
@@ -140,7 +140,8 @@ int RunOptimize(int argc, char** argv) {
             "deletion would lower chi2 by more than the threshold are rejected too)");
   args.Option("init", &init, "METHOD",
               "initial estimate: auto (the default: the file's vertices, or the chordal "
-              "relaxation when its chi2 is lower), file (the file's vertices), odometry "
+              "relaxation when its chi2 is lower; with --reject-outliers the default is file, "
+              "since wrong loop closures bend the relaxation), file (the file's vertices), odometry "
               "(chained odometry), spanning-tree (chained along the most certain edges) or "
               "chordal (chordal relaxation of the rotations, then linear translations)");
   args.Flag("quiet", &quiet, "no progress lines and no summary");
@@ -185,6 +186,9 @@ int RunOptimize(int argc, char** argv) {
     }
   }
 
+  // Outlier rejection trusts its start, and the chordal relaxation takes in
+  // every loop closure, wrong ones included.
+  if (init.empty()) init = reject_outliers ? "file" : "auto";
   InitMethod init_method;
   try {
     init_method = ParseInitMethod(init);

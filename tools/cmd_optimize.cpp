@@ -91,7 +91,8 @@ int RunOptimize(int argc, char** argv) {
   args.Option("initial-radius", &o.initial_trust_region_radius, "R",
               "ceres: first trust-region radius (large: start close to Gauss-Newton)");
   args.Option("min-lm-diagonal", &o.min_lm_diagonal, "D",
-              "ceres: lower bound on Levenberg-Marquardt's diagonal damping");
+              "ceres: lower bound on Levenberg-Marquardt's diagonal damping (times the "
+              "largest information entry when that is below 1)");
   args.Flag("postordering", &o.use_postordering,
             "ceres: let the sparse Cholesky order the normal matrix itself (AMD with "
             "postordering) instead of pre-permuting the Jacobian");

@@ -62,7 +62,8 @@ int RunCompare(int argc, char** argv) {
   args.Option("function-tolerance", &common.function_tolerance, "TOL",
               "both stop when one step lowers chi2 by less than this fraction");
   args.Option("gradient-tolerance", &common.gradient_tolerance, "TOL",
-              "both stop when the largest gradient component is below this");
+              "both stop when the largest gradient component is below this times chi2 per "
+              "residual");
   args.Option("parameter-tolerance", &common.parameter_tolerance, "TOL",
               "both stop when the step is this small relative to the estimate");
   args.Option("threads", &common.threads, "N", "threads for both (0: one per core)");

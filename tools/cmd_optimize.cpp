@@ -85,7 +85,7 @@ int RunOptimize(int argc, char** argv) {
   args.Option("function-tolerance", &o.function_tolerance, "TOL",
               "stop when one step lowers chi2 by less than this fraction");
   args.Option("gradient-tolerance", &o.gradient_tolerance, "TOL",
-              "stop when the largest gradient component is below this");
+              "stop when the largest gradient component is below this times chi2 per residual");
   args.Option("parameter-tolerance", &o.parameter_tolerance, "TOL",
               "stop when the step is this small relative to the estimate");
   args.Option("initial-radius", &o.initial_trust_region_radius, "R",

@@ -12,7 +12,7 @@ echo "| --- | --- | --- | --- | --- | --- | --- |"
 for f in 2d/intel 2d/MIT 2d/city10000 2d/manhattan 2d/CSAIL 3d/tinyGrid3D 3d/smallGrid3D \
          3d/sphere2500 3d/parking-garage 3d/sphere_bignoise_vertex3; do
   [ -f "$data/$f.g2o" ] || continue
-  for init in file odometry spanning-tree chordal; do
+  for init in file odometry spanning-tree chordal auto; do
     ok=yes
     "$build/cairn" compare --quiet --init "$init" --json "$tmp/r.json" "$data/$f.g2o" \
       > /dev/null 2>&1 || ok=no

@@ -39,7 +39,7 @@ double TimeToReach(const SolveResult& r, double chi2) {
 }
 
 struct CompareArgs {
-  std::string path, json, robust = "none", linear_solver = "auto", sparse = "auto", init = "file";
+  std::string path, json, robust = "none", linear_solver = "auto", sparse = "auto", init = "auto";
   bool quiet = false, no_chord = false;
   double tol_m = 1e-4, tol_deg = 1e-3, tol_chi2 = 1e-6;
   SolverOptions common;
@@ -65,7 +65,8 @@ void DeclareOptions(ArgParser& args, CompareArgs& a) {
   args.Option("function-tolerance", &a.common.function_tolerance, "TOL",
               "both stop when one step lowers chi2 by less than this fraction");
   args.Option("gradient-tolerance", &a.common.gradient_tolerance, "TOL",
-              "both stop when the largest gradient component is below this");
+              "both stop when the largest gradient component is below this times chi2 per "
+              "residual");
   args.Option("parameter-tolerance", &a.common.parameter_tolerance, "TOL",
               "both stop when the step is this small relative to the estimate");
   args.Option("threads", &a.common.threads, "N", "threads for both (0: one per core)");
@@ -76,9 +77,10 @@ void DeclareOptions(ArgParser& args, CompareArgs& a) {
               "gn: Levenberg-Marquardt damping (times diag H) the fallback starts from, 1/radius as in Ceres");
   args.Option("sparse", &a.sparse, "LIB", "ceres: auto, suitesparse, eigen or cxsparse");
   args.Option("init", &a.init, "METHOD",
-              "initial estimate for both: file (the file's vertices), odometry (chained "
-              "odometry), spanning-tree (chained along the most certain edges) or chordal "
-              "(chordal relaxation of the rotations, then linear translations)");
+              "initial estimate for both: auto (the default: the file's vertices, or the "
+              "chordal relaxation when its chi2 is lower), file (the file's vertices), odometry "
+              "(chained odometry), spanning-tree (chained along the most certain edges) or "
+              "chordal (chordal relaxation of the rotations, then linear translations)");
   args.Flag("gn-no-chord", &a.no_chord,
             "gn: factorise at every step (no steps with an earlier factorisation)");
   args.Flag("quiet", &a.quiet, "no per-iteration progress lines");
@@ -179,6 +181,11 @@ Json CompareJson(const std::string& path, InitMethod init_method, const InitRepo
   init["method"] = ToString(init_method);
   PutNumber(init, "time_s", init_report.time_s);
   PutNumber(init, "chi2", init_report.chi2);
+  if (init_method == InitMethod::kAuto) {
+    init["chosen"] = ToString(init_report.chosen);
+    PutNumber(init, "file_chi2", init_report.file_chi2);
+    PutNumber(init, "chordal_chi2", init_report.chordal_chi2);  // null: its systems were singular
+  }
   j["init"] = std::move(init);
   j["ceres"] = SolverJson(c);
   j["gn"] = SolverJson(g);
@@ -227,6 +234,7 @@ int RunCompare(int argc, char** argv) {
 
   std::printf("%s: %zu vertices, %zu edges\n", a.path.c_str(), input.vertices().size(),
               input.edges().size());
+  if (init_method == InitMethod::kAuto) std::printf("%s\n", DescribeAutoChoice(init_report).c_str());
   PrintTable(c, g, d, chi2_rel);
   if (!a.json.empty()) {
     const Json j = CompareJson(a.path, init_method, init_report, runs, d, chi2_rel);

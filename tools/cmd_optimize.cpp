@@ -30,7 +30,7 @@ std::string Number(double v) {
 // What the command line says, before it is turned into the solvers' options.
 struct OptimizeArgs {
   std::string in, out, solver = "ceres", robust = "none", method = "lm", sparse = "auto";
-  std::string init = "file", report, plot, linear_solver = "auto", covariance_ids;
+  std::string init, report, plot, linear_solver = "auto", covariance_ids;
   bool quiet = false, strict = false;
   SolverOptions common;
   // Ceres's own settings and Gauss-Newton's, at their defaults.
@@ -61,13 +61,14 @@ void DeclareSolverOptions(ArgParser& args, OptimizeArgs& a) {
   args.Option("function-tolerance", &a.common.function_tolerance, "TOL",
               "stop when one step lowers chi2 by less than this fraction");
   args.Option("gradient-tolerance", &a.common.gradient_tolerance, "TOL",
-              "stop when the largest gradient component is below this");
+              "stop when the largest gradient component is below this times chi2 per residual");
   args.Option("parameter-tolerance", &a.common.parameter_tolerance, "TOL",
               "stop when the step is this small relative to the estimate");
   args.Option("initial-radius", &a.initial_radius, "R",
               "ceres: first trust-region radius (large: start close to Gauss-Newton)");
   args.Option("min-lm-diagonal", &a.min_lm_diagonal, "D",
-              "ceres: lower bound on Levenberg-Marquardt's diagonal damping");
+              "ceres: lower bound on Levenberg-Marquardt's diagonal damping (times the "
+              "largest information entry when that is below 1)");
   args.Flag("postordering", &a.postordering,
             "ceres: let the sparse Cholesky order the normal matrix itself (AMD with "
             "postordering) instead of pre-permuting the Jacobian");
@@ -122,9 +123,11 @@ void DeclareOptions(ArgParser& args, OptimizeArgs& a) {
               "draw the trajectory before and after, loop closures in red (3D: x-y view)");
   DeclareOutlierOptions(args, a);
   args.Option("init", &a.init, "METHOD",
-              "initial estimate: file (the file's vertices), odometry (chained odometry), "
-              "spanning-tree (chained along the most certain edges) or chordal (chordal "
-              "relaxation of the rotations, then linear translations)");
+              "initial estimate: auto (the default: the file's vertices, or the chordal "
+              "relaxation when its chi2 is lower; with --reject-outliers the default is file, "
+              "since wrong loop closures bend the relaxation), file (the file's vertices), odometry "
+              "(chained odometry), spanning-tree (chained along the most certain edges) or "
+              "chordal (chordal relaxation of the rotations, then linear translations)");
   args.Flag("quiet", &a.quiet, "no progress lines and no summary");
   args.Flag("strict", &a.strict, "accepted for old scripts: unknown tags are always refused now "
                                  "(unless --keep-unknown)");
@@ -161,7 +164,9 @@ bool MakePlan(OptimizeArgs& a, OptimizePlan* p) {
     p->gn.linear_solver = ParseCholeskyKind(a.linear_solver);
     p->gn.damping = a.gn_damping;
     p->gn.reuse_factorization = !a.gn_no_chord;
-    p->init = ParseInitMethod(a.init);
+    // Outlier rejection trusts its start, and the chordal relaxation takes in
+    // every loop closure, wrong ones included.
+    p->init = ParseInitMethod(!a.init.empty() ? a.init : a.reject_outliers ? "file" : "auto");
   } catch (const std::invalid_argument& e) {
     PrintError(e.what());
     return false;
@@ -245,7 +250,7 @@ void WriteReport(const OptimizeArgs& a, const OptimizePlan& p, const PoseGraph& 
                  const std::vector<VertexPair>& rejected,
                  const std::vector<Eigen::MatrixXd>& covariances) {
   const bool gn = p.solver == SolverKind::kGaussNewton;
-  const std::vector<std::pair<std::string, std::string>> context = {
+  std::vector<std::pair<std::string, std::string>> context = {
       {"input", a.in},
       {"output", a.out},
       {"dimension", std::to_string(graph.dimension())},
@@ -260,6 +265,11 @@ void WriteReport(const OptimizeArgs& a, const OptimizePlan& p, const PoseGraph& 
       {"init_time_s", Number(t.init.time_s)},
       {"init_chi2", Number(t.init.chi2)},
   };
+  if (p.init == InitMethod::kAuto) {
+    context.emplace_back("init_chosen", ToString(t.init.chosen));
+    context.emplace_back("init_file_chi2", Number(t.init.file_chi2));
+    context.emplace_back("init_chordal_chi2", Number(t.init.chordal_chi2));
+  }
   std::ostringstream text;
   WriteReportJson(result, text, context);
   Json report = Json::parse(text.str());
@@ -312,6 +322,8 @@ int RunOptimize(int argc, char** argv) {
   if (!a.quiet && p.init != InitMethod::kFile)
     std::fprintf(stderr, "initial estimate: %s, %.4f s, chi2 %.10g\n", ToString(p.init),
                  t.init.time_s, t.init.chi2);
+  if (!a.quiet && p.init == InitMethod::kAuto)
+    std::printf("%s\n", DescribeAutoChoice(t.init).c_str());
 
   std::vector<VertexPair> rejected;
   const SolveResult result =

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -262,8 +264,9 @@ InitMethod ParseInitMethod(const std::string& name) {
   if (name == "odometry") return InitMethod::kOdometry;
   if (name == "spanning-tree") return InitMethod::kSpanningTree;
   if (name == "chordal") return InitMethod::kChordal;
+  if (name == "auto") return InitMethod::kAuto;
   throw std::invalid_argument("unknown initialisation '" + name +
-                              "' (file, odometry, spanning-tree or chordal)");
+                              "' (file, odometry, spanning-tree, chordal or auto)");
 }
 
 const char* ToString(InitMethod method) {
@@ -272,20 +275,64 @@ const char* ToString(InitMethod method) {
     case InitMethod::kOdometry: return "odometry";
     case InitMethod::kSpanningTree: return "spanning-tree";
     case InitMethod::kChordal: return "chordal";
+    case InitMethod::kAuto: return "auto";
   }
   return "?";
 }
 
+InitReport InitializeAuto(PoseGraph& graph) {
+  const auto start = std::chrono::steady_clock::now();
+  InitReport report;
+  report.method = InitMethod::kAuto;
+  report.file_chi2 = Chi2(graph);
+  std::vector<PoseParams> file;
+  file.reserve(graph.vertices().size());
+  for (const Vertex& v : graph.vertices()) file.push_back(v.x);
+  try {
+    InitializeChordal(graph);
+    report.chordal_chi2 = Chi2(graph);
+  } catch (const std::runtime_error&) {
+    report.chordal_chi2 = std::numeric_limits<double>::quiet_NaN();
+  }
+  // A NaN file chi2 loses to any finite chordal one.
+  const bool chordal = report.chordal_chi2 < report.file_chi2 ||
+                       (!std::isfinite(report.file_chi2) && std::isfinite(report.chordal_chi2));
+  if (!chordal) {
+    size_t k = 0;
+    for (Vertex& v : graph.vertices()) v.x = file[k++];
+  }
+  report.chosen = chordal ? InitMethod::kChordal : InitMethod::kFile;
+  report.chi2 = chordal ? report.chordal_chi2 : report.file_chi2;
+  report.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+std::string DescribeAutoChoice(const InitReport& report) {
+  const bool chordal = report.chosen == InitMethod::kChordal;
+  char buf[160];
+  if (std::isnan(report.chordal_chi2)) {
+    std::snprintf(buf, sizeof buf, "initial estimate (auto): file, chi2 %.10g (chordal: singular)",
+                  report.file_chi2);
+  } else {
+    std::snprintf(buf, sizeof buf, "initial estimate (auto): %s, chi2 %.10g (%s %.10g)",
+                  ToString(report.chosen), report.chi2, chordal ? "file" : "chordal",
+                  chordal ? report.file_chi2 : report.chordal_chi2);
+  }
+  return buf;
+}
+
 InitReport Initialize(PoseGraph& graph, InitMethod method) {
+  if (method == InitMethod::kAuto) return InitializeAuto(graph);
   const auto start = std::chrono::steady_clock::now();
   switch (method) {
+    case InitMethod::kAuto: break;  // above
     case InitMethod::kFile: break;
     case InitMethod::kOdometry: InitializeByOdometry(graph); break;
     case InitMethod::kSpanningTree: InitializeBySpanningTree(graph); break;
     case InitMethod::kChordal: InitializeChordal(graph); break;
   }
   InitReport report;
-  report.method = method;
+  report.method = report.chosen = method;
   report.time_s = Seconds(start);
   report.chi2 = Chi2(graph);
   return report;

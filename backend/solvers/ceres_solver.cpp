@@ -82,6 +82,18 @@ ceres::SparseLinearAlgebraLibraryType SparseLibraryFor(const PoseGraph& graph,
              : SimplicialLibrary();
 }
 
+// The largest diagonal entry of any edge's information: the floor on LM's
+// diagonal scales with it below 1, since Ceres clamps the diagonal of the
+// Jacobi-scaled Jacobian, which is about the information itself when that is
+// small, and a fixed floor would then damp every step.
+double LargestInformation(const PoseGraph& graph) {
+  double largest = 0;
+  const int t = graph.TangentSize();
+  for (const Edge& e : graph.edges())
+    largest = std::max(largest, e.information.diagonal().head(t).maxCoeff());
+  return largest;
+}
+
 }  // namespace
 
 FactorEstimate EstimateFactor(const PoseGraph& graph) {
@@ -201,11 +213,12 @@ ceres::Solver::Options MakeSolverOptions(const PoseGraph& graph, const CeresOpti
   so.max_solver_time_in_seconds = options.max_time_s;
   so.num_threads = ResolveThreads(options.threads);
   so.function_tolerance = options.function_tolerance;
-  so.gradient_tolerance = options.gradient_tolerance;
+  // Relative instead, by RelativeGradientTest.
+  so.gradient_tolerance = 0;
   so.parameter_tolerance = options.parameter_tolerance;
   so.jacobi_scaling = options.jacobi_scaling;
   so.initial_trust_region_radius = options.initial_trust_region_radius;
-  so.min_lm_diagonal = options.min_lm_diagonal;
+  so.min_lm_diagonal = options.min_lm_diagonal * std::min(1.0, LargestInformation(graph));
   so.use_postordering = options.use_postordering;
   so.logging_type = ceres::SILENT;
   so.minimizer_progress_to_stdout = false;
@@ -241,6 +254,9 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
                          ceres::SparseLinearAlgebraLibraryTypeToString(so.sparse_linear_algebra_library_type);
   TraceCallback callback(&result, options.verbose);
   so.callbacks.push_back(&callback);
+  RelativeGradientTest gradient_test(options.gradient_tolerance,
+                                     graph_problem.problem().NumResiduals());
+  so.callbacks.push_back(&gradient_test);
   result.setup_time_s = Seconds(start);
 
   ceres::Solver::Summary summary;
@@ -261,7 +277,8 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
                                         : "the solve ended with a non-finite estimate") +
                      "; the starting estimate is kept (Ceres: " + summary.message + ")";
     result.converged = false;
-    result.usable = std::isfinite(result.final_chi2);
+    // The start is back: usable when it was finite.
+    result.usable = IsUsableEstimate(result.final_chi2, result.final_chi2);
     result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
     result.time_s = Seconds(start);
     return result;
@@ -270,12 +287,32 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
   result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
   result.linearize_time_s = summary.jacobian_evaluation_time_in_seconds;
   result.linear_solver_time_s = summary.linear_solver_time_in_seconds;
-  result.termination = Termination(summary.termination_type);
-  result.message = summary.message;
-  result.converged = summary.termination_type == ceres::CONVERGENCE;
-  result.usable = summary.IsSolutionUsable();
+  SetTermination(summary, gradient_test, &result);
   result.time_s = Seconds(start);
   return result;
+}
+
+ceres::CallbackReturnType RelativeGradientTest::operator()(const ceres::IterationSummary& s) {
+  // g2o's chi2 (robustified when a loss is set) per residual.
+  const double per_residual = 2 * s.cost / std::max(1, residuals_);
+  if (s.iteration == 0 || s.gradient_max_norm > tolerance_ * per_residual)
+    return ceres::SOLVER_CONTINUE;
+  reached_ = true;
+  return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+}
+
+void SetTermination(const ceres::Solver::Summary& summary, const RelativeGradientTest& test,
+                    SolveResult* result) {
+  result->termination = Termination(summary.termination_type);
+  result->message = test.reached() && summary.termination_type == ceres::USER_SUCCESS
+                        ? "gradient tolerance reached (relative to chi2 per residual)"
+                        : summary.message;
+  result->converged = summary.termination_type == ceres::CONVERGENCE ||
+                      (summary.termination_type == ceres::USER_SUCCESS && test.reached());
+  // Ceres's cost includes the robust loss: the objective it minimised. A
+  // configuration Ceres refused leaves both costs at -1: nothing was solved.
+  result->usable = summary.initial_cost >= 0 &&
+                   IsUsableEstimate(2 * summary.initial_cost, 2 * summary.final_cost);
 }
 
 std::vector<Eigen::MatrixXd> CeresMarginalCovariances(ceres::Problem& problem,

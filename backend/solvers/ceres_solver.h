@@ -5,6 +5,7 @@
 
 #include <ceres/loss_function.h>
 #include <ceres/manifold.h>
+#include <ceres/iteration_callback.h>
 #include <ceres/problem.h>
 #include <ceres/solver.h>
 
@@ -38,6 +39,9 @@ struct CeresOptions : SolverOptions {
   // Ceres's 1e4 damps too long (19 iterations on sphere2500, 6 here); 1e12
   // lets the first steps of sphere_bignoise fall into a worse minimum.
   double initial_trust_region_radius = 1e10;
+  // Ceres's floor on LM's (Jacobi-scaled) diagonal, times the largest
+  // information entry when that is below 1, so that tiny information is not
+  // damped by the floor alone.
   double min_lm_diagonal = 1e-6;
   // Let the sparse Cholesky library order the normal matrix itself (AMD with
   // its postordering) rather than Ceres pre-permuting the Jacobian's columns.
@@ -92,6 +96,35 @@ class CeresGraphProblem {
 // library chosen per graph when kAuto); shared by the batch and incremental
 // paths. Callbacks are the caller's to add.
 ceres::Solver::Options MakeSolverOptions(const PoseGraph& graph, const CeresOptions& options);
+
+// Ceres's own gradient test is absolute, so that scaling the information
+// would move where it stops: MakeSolverOptions switches it off and this
+// callback stops the solve instead once the gradient's largest component
+// falls to `tolerance` times chi2 per residual (`residuals` of them), which
+// is about 1 at the optimum of a graph whose information matches its noise:
+// there the test reads as Ceres's absolute one. Ceres's gradient is the
+// projected one, x - Plus(x, -g), proportional to the tangent gradient only
+// while that is small: with information scaled up by many orders the test
+// fires early (the function and parameter tests are not affected). Add it
+// to the options' callbacks.
+class RelativeGradientTest : public ceres::IterationCallback {
+ public:
+  RelativeGradientTest(double tolerance, int residuals)
+      : tolerance_(tolerance), residuals_(residuals) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override;
+  bool reached() const { return reached_; }
+
+ private:
+  double tolerance_;
+  int residuals_;
+  bool reached_ = false;
+};
+
+// termination, message, converged and usable of `result` from Ceres's
+// summary, by the rule solve_result.h states; shared by the batch and
+// incremental paths.
+void SetTermination(const ceres::Solver::Summary& summary, const RelativeGradientTest& test,
+                    SolveResult* result);
 
 // Optimises the graph's vertices in place. initial_chi2 and final_chi2 are
 // g2o's (without the robust loss); the per-iteration trace holds twice

@@ -68,6 +68,9 @@ struct GaussNewtonProblem::Workspace {
   std::vector<std::pair<int, int>> gradient_terms;
   std::vector<int> diagonal;  // value index of each H(i, i)
   std::vector<double> diagonal_saved;
+  // The least damping any diagonal entry gets, relative to the largest, so
+  // that a zero entry is damped too whatever the scale of the information.
+  double damping_floor = 0;
   std::vector<double> b, dx, x_saved, b_saved;
   std::unique_ptr<SparseCholesky> cholesky;
   std::vector<int> variables;  // non-constant blocks, in H's order
@@ -137,6 +140,7 @@ constexpr double kChordThreshold = 2e-2;
 // linear model predicted, and the trust region stays within [1e-32, 1e16].
 constexpr double kMinRelativeDecrease = 1e-3;
 constexpr double kMinDamping = 1e-16, kMaxDamping = 1e32;
+constexpr double kRelativeDampingFloor = 1e-16;
 
 // The small dense products of the inner loops, with sizes known at compile
 // time for the poses' blocks (2D: 3 residuals, 3 parameters, 3 tangent; 3D:
@@ -190,6 +194,10 @@ void AddOuter(const double* jp, const double* jq, double* acc, int ld, int m, in
         .noalias() += Eigen::Map<const RowMatrix>(jp, m, tr).transpose() *
                       Eigen::Map<const RowMatrix>(jq, m, tc);
   }
+}
+
+double MaxAbs(const std::vector<double>& v, int n) {
+  return n > 0 ? Eigen::Map<const Eigen::VectorXd>(v.data(), n).cwiseAbs().maxCoeff() : 0.0;
 }
 
 double RhoOf(const ceres::LossFunction* loss, double s, double* weight) {
@@ -641,7 +649,12 @@ void GaussNewtonProblem::AssembleNormalMatrix() {
       }
     }
   });
-  for (int i = 0; i < w.n; ++i) w.diagonal_saved[i] = h[w.diagonal[i]];
+  double largest = 0;
+  for (int i = 0; i < w.n; ++i) {
+    w.diagonal_saved[i] = h[w.diagonal[i]];
+    largest = std::max(largest, w.diagonal_saved[i]);
+  }
+  w.damping_floor = kRelativeDampingFloor * largest;
 }
 
 bool GaussNewtonProblem::SolveWithLastFactor(double* step_norm) {
@@ -656,7 +669,7 @@ bool GaussNewtonProblem::SolveStep(double lambda, double* step_norm) {
   Workspace& w = *ws_;
   double* h = w.cholesky->values();
   for (int i = 0; i < w.n; ++i)
-    h[w.diagonal[i]] = w.diagonal_saved[i] + lambda * std::max(w.diagonal_saved[i], 1e-12);
+    h[w.diagonal[i]] = w.diagonal_saved[i] + lambda * std::max(w.diagonal_saved[i], w.damping_floor);
   if (!w.cholesky->Factorize()) return false;
   w.cholesky->Solve(w.b.data(), w.dx.data());
   for (double& d : w.dx) d = -d;
@@ -670,7 +683,7 @@ double GaussNewtonProblem::PredictedDecrease(double lambda) const {
   const Workspace& w = *ws_;
   double decrease = 0;
   for (int i = 0; i < w.n; ++i)
-    decrease += -w.b[i] * w.dx[i] + lambda * std::max(w.diagonal_saved[i], 1e-12) * w.dx[i] * w.dx[i];
+    decrease += -w.b[i] * w.dx[i] + lambda * std::max(w.diagonal_saved[i], w.damping_floor) * w.dx[i] * w.dx[i];
   return decrease;
 }
 
@@ -747,7 +760,7 @@ struct GaussNewtonProblem::SolveState {
     result.message = message + " (linear solver " + ToString(linear_solver) + ")";
     result.converged = converged;
     result.final_chi2 = chi2;
-    result.usable = std::isfinite(chi2) && chi2 <= result.initial_chi2;
+    result.usable = IsUsableEstimate(result.initial_chi2, chi2);
     result.time_s = Seconds(t0);
     done = true;
   }
@@ -871,9 +884,16 @@ void GaussNewtonProblem::FullStep(SolveState& s, int iter) {
   }
   s.jacobians_current = false;
   s.result.linearize_time_s += Seconds(tl);
-  const double g_max = Eigen::Map<const Eigen::VectorXd>(w.b.data(), w.n).cwiseAbs().maxCoeff();
-  if (g_max <= s.options.gradient_tolerance) {
-    s.Finish("convergence", "gradient tolerance reached: max |g| " + std::to_string(g_max), true);
+  const double g_max = MaxAbs(w.b, w.n);
+  // Relative to chi2 per residual, as on the Ceres path, so that scaling
+  // every information matrix leaves the iterations as they are.
+  const double per_residual = s.chi2 / std::max<size_t>(1, w.r.size());
+  if (g_max <= s.options.gradient_tolerance * per_residual) {
+    char text[112];
+    std::snprintf(text, sizeof text,
+                  "gradient tolerance reached: max |g| %.3g, %.3g times chi2 per residual", g_max,
+                  per_residual > 0 ? g_max / per_residual : 0.0);
+    s.Finish("convergence", text, true);
     return;
   }
   SaveEstimate();

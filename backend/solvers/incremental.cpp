@@ -195,6 +195,8 @@ SolveResult IncrementalOptimizer::Optimize(SolverKind solver) {
   result.initial_chi2 = Chi2(graph_);
   ceres::Solver::Options so = MakeSolverOptions(graph_, options_.ceres);
   so.minimizer_progress_to_stdout = options_.ceres.verbose;
+  RelativeGradientTest gradient_test(options_.ceres.gradient_tolerance, ceres_->NumResiduals());
+  so.callbacks.push_back(&gradient_test);
   result.setup_time_s = Seconds(start);
   ceres::Solver::Summary summary;
   SerialLinearAlgebraScope serial;  // for CHOLMOD and BLAS inside Ceres as for ours
@@ -203,12 +205,7 @@ SolveResult IncrementalOptimizer::Optimize(SolverKind solver) {
   result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
   result.linearize_time_s = summary.jacobian_evaluation_time_in_seconds;
   result.linear_solver_time_s = summary.linear_solver_time_in_seconds;
-  result.termination = summary.termination_type == ceres::CONVERGENCE ? "convergence"
-                       : summary.termination_type == ceres::NO_CONVERGENCE ? "no_convergence"
-                                                                           : "failure";
-  result.message = summary.message;
-  result.converged = summary.termination_type == ceres::CONVERGENCE;
-  result.usable = summary.IsSolutionUsable();
+  SetTermination(summary, gradient_test, &result);
   result.time_s = Seconds(start);
   return result;
 }

@@ -120,6 +120,10 @@ void WriteReportJson(const SolveResult& r, std::ostream& out,
   out << j.dump(2, ' ', false, Json::error_handler_t::replace) << "\n";
 }
 
+bool IsUsableEstimate(double initial_objective, double final_objective) {
+  return std::isfinite(final_objective) && final_objective <= initial_objective;
+}
+
 std::string FormatIteration(const IterationRecord& t) {
   char buf[160];
   std::snprintf(buf, sizeof buf, "iter %3d  chi2 %.9e  |step| %.3e  %s  %8.3f s", t.iteration,

@@ -40,9 +40,14 @@ struct SolverOptions {
   int max_iterations = 100;
   // Worker threads; 0 means one per hardware thread.
   int threads = 0;
+  // The three stopping rules are relative, so that scaling every information
+  // matrix by the same factor changes neither the iterations nor the estimate.
   // Stop when the relative decrease of chi2 in one step falls below this.
   double function_tolerance = 1e-6;
-  // Stop when the largest gradient component (in the tangent space) is below.
+  // Stop when the largest gradient component falls to this times chi2 per
+  // residual (about 1 at the optimum when the information matches the
+  // noise). Gauss-Newton: in the tangent space; Ceres: its projected
+  // gradient, see RelativeGradientTest.
   double gradient_tolerance = 1e-10;
   // Stop when |step| <= parameter_tolerance * (|x| + parameter_tolerance).
   double parameter_tolerance = 1e-8;
@@ -76,11 +81,26 @@ struct SolveResult {
   // "convergence", "no_convergence" (the iteration or time limit) or "failure".
   std::string termination;
   std::string message;  // the solver's own words on why it stopped
+  // One of the solver's convergence tests stopped it: the function, gradient
+  // or parameter tolerance (above), or no step, however damped, lowering
+  // the objective (Gauss-Newton; Ceres's smallest trust region). Never set
+  // by the iteration or time limit, nor by a failure. Equivalent to
+  // termination == "convergence".
   bool converged = false;
   int reused_factorizations = 0;  // Gauss-Newton: steps taken with an earlier factorisation
-  bool usable = false;  // the estimate is at least as good as the start
+  // The estimate left in the graph is finite and its objective (g2o's chi2,
+  // robustified when a loss is set: what the solver minimised) is no higher
+  // than at the start: IsUsableEstimate. A solve that ends worse puts the
+  // start back (Ceres) or never takes the step (Gauss-Newton), so this is
+  // false only when the start itself is not finite. Whether it converged
+  // does not matter.
+  bool usable = false;
   std::vector<IterationRecord> trace;
 };
+
+// The rule for SolveResult::usable, from the objective at the start and at
+// the estimate returned.
+bool IsUsableEstimate(double initial_objective, double final_objective);
 
 // Writes the result as one JSON object: the fields above (the trace as an
 // array of objects), preceded by `context` (e.g. input file, sizes), whose

@@ -25,10 +25,11 @@ const Case kCases[] = {
     {"g2o/3d/smallGrid3D.g2o", "", 458.1537843},
     {"g2o/3d/sphere2500.g2o", "", 727.1496672, true},
     {"g2o/3d/parking-garage.g2o", "", 1.23869058},
-    // From its own vertices MIT has local minima: peers stop anywhere from
+    // From its own vertices (--init file; the default, auto, takes the
+    // chordal relaxation) MIT has local minima: peers stop anywhere from
     // 526.3 to 5153, and both our paths must stop at the same one. From the
     // spanning tree both reach the best known optimum.
-    {"g2o/2d/MIT.g2o", "", 5153},
+    {"g2o/2d/MIT.g2o", "--init file", 5153},
     {"g2o/2d/MIT.g2o", "--init spanning-tree", 41.1633},
 };
 

@@ -35,7 +35,7 @@ TEST(OptimizeTool, WritesGraphReportAndPlot) {
   WriteG2o(sim.noisy, in);
   int status = -1;
   const std::string log = testing::RunCommand(Tool() + " optimize '" + in + "' -o '" + out +
-                                                  "' --robust huber:1 --report '" + report +
+                                                  "' --init file --robust huber:1 --report '" + report +
                                                   "' --plot '" + plot + "' 2>&1",
                                               &status);
   ASSERT_EQ(status, 0) << log;

@@ -8,7 +8,7 @@ SUDO=""
 [ "$(id -u)" -ne 0 ] && SUDO="sudo"
 PACKAGES=(build-essential cmake pkg-config libceres-dev libeigen3-dev libsuitesparse-dev
           libgoogle-glog-dev libgflags-dev libgtest-dev libgmock-dev libbenchmark-dev
-          zlib1g-dev libopenblas0-pthread nlohmann-json3-dev)
+          zlib1g-dev libopenblas0-pthread universal-ctags python3 nlohmann-json3-dev)
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

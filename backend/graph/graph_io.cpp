@@ -24,12 +24,6 @@
 
 namespace cairn {
 
-ParseError::ParseError(const std::string& file, size_t line, const std::string& message)
-    : std::runtime_error(file + ":" + std::to_string(line) + ": " + message),
-      file_(file),
-      line_(line),
-      message_(message) {}
-
 namespace {
 
 // One line's fields, with number parsing that reports where it went wrong.

@@ -14,20 +14,6 @@
 
 namespace cairn {
 
-// A malformed input: what() reads "FILE:LINE: what is wrong".
-class ParseError : public std::runtime_error {
- public:
-  ParseError(const std::string& file, size_t line, const std::string& message);
-  const std::string& file() const { return file_; }
-  size_t line() const { return line_; }
-  const std::string& message() const { return message_; }
-
- private:
-  std::string file_;
-  size_t line_;
-  std::string message_;
-};
-
 struct ReadOptions {
   // A line whose tag cairn does not know is an error ("FILE:LINE: unknown
   // tag"), since skipping it would lose what it says. With keep_unknown it

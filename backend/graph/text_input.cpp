@@ -5,9 +5,14 @@
 #include <istream>
 #include <stdexcept>
 
-#include "cairn/graph/graph_io.h"
 
 namespace cairn {
+
+ParseError::ParseError(const std::string& file, size_t line, const std::string& message)
+    : std::runtime_error(file + ":" + std::to_string(line) + ": " + message),
+      file_(file),
+      line_(line),
+      message_(message) {}
 namespace {
 
 constexpr size_t kChunk = size_t{1} << 16;

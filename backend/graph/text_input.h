@@ -8,10 +8,25 @@
 #include <cstddef>
 #include <functional>
 #include <iosfwd>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace cairn {
+
+// A malformed input: what() reads "FILE:LINE: what is wrong".
+class ParseError : public std::runtime_error {
+ public:
+  ParseError(const std::string& file, size_t line, const std::string& message);
+  const std::string& file() const { return file_; }
+  size_t line() const { return line_; }
+  const std::string& message() const { return message_; }
+
+ private:
+  std::string file_;
+  size_t line_;
+  std::string message_;
+};
 
 // Far above any real line (a 100000-beam laser scan is about 700 KB).
 inline constexpr size_t kDefaultMaxLineBytes = size_t{1} << 20;

@@ -478,7 +478,7 @@ class DomainCholmod final : public SparseCholesky {
   // One CHOLMOD factorisation of the whole, in the given order if any.
   void Whole(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
              const std::vector<int>& block_sizes, const std::vector<int>& order = {}) {
-    whole_ = SparseCholesky::Create(CholeskyKind::kSupernodalOrSimplicial);
+    whole_ = SparseCholesky::Create(Factorization::kSupernodalOrSimplicial);
     whole_->SetBlockOrdering(order.empty() ? given_ : order);
     whole_->Analyze(n, col_ptr, rows, block_sizes);
   }

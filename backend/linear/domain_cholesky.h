@@ -16,7 +16,7 @@ constexpr double kMinWorkToSplit = 2e7;
 
 // Splits when the estimated work is at least `min_work` and two threads
 // would finish in at most 3/4 of one's time; otherwise it is CHOLMOD's own
-// choice (CholeskyKind::kSupernodalOrSimplicial) on one thread, in the same order.
+// choice (Factorization::kSupernodalOrSimplicial) on one thread, in the same order.
 std::unique_ptr<SparseCholesky> CreateDomainCholesky(double min_work = kMinWorkToSplit);
 
 }  // namespace cairn

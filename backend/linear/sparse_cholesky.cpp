@@ -2,7 +2,6 @@
 
 #include "cairn/linear/block_ordering.h"
 #include "cairn/linear/cholmod_common.h"
-#include "cairn/linear/domain_cholesky.h"
 #include "cairn/linear/serial_scope.h"
 
 #include <cholmod.h>
@@ -233,14 +232,12 @@ class EigenLDLT final : public SparseCholesky {
 
 }  // namespace
 
-std::unique_ptr<SparseCholesky> SparseCholesky::Create(CholeskyKind kind) {
+std::unique_ptr<SparseCholesky> SparseCholesky::Create(Factorization kind) {
   switch (kind) {
-    case CholeskyKind::kAuto: return Create(ResolveCholeskyKind(kind, 1));
-    case CholeskyKind::kTwoHalves: return CreateDomainCholesky();
-    case CholeskyKind::kSupernodal: return std::make_unique<Cholmod>(CHOLMOD_SUPERNODAL);
-    case CholeskyKind::kSimplicial: return std::make_unique<Cholmod>(CHOLMOD_SIMPLICIAL);
-    case CholeskyKind::kSupernodalOrSimplicial: return std::make_unique<Cholmod>(CHOLMOD_AUTO);
-    case CholeskyKind::kEigenLDLT: return std::make_unique<EigenLDLT>();
+    case Factorization::kSupernodal: return std::make_unique<Cholmod>(CHOLMOD_SUPERNODAL);
+    case Factorization::kSimplicial: return std::make_unique<Cholmod>(CHOLMOD_SIMPLICIAL);
+    case Factorization::kSupernodalOrSimplicial: return std::make_unique<Cholmod>(CHOLMOD_AUTO);
+    case Factorization::kEigenLDLT: return std::make_unique<EigenLDLT>();
   }
   return nullptr;
 }

@@ -6,14 +6,19 @@
 #include <string>
 #include <vector>
 
-#include "cairn/solvers/linear_solver.h"
-
 namespace cairn {
+
+// One factorisation of the whole matrix: SuiteSparse's supernodal or
+// simplicial method, SuiteSparse choosing between them per matrix by flops
+// per nonzero, or Eigen's simplicial LDLT. (The two-halves factorisation is
+// CreateDomainCholesky in domain_cholesky.h; solvers/linear_solver.h's
+// CholeskyKind is the caller's choice among all of them.)
+enum class Factorization { kSupernodal, kSimplicial, kSupernodalOrSimplicial, kEigenLDLT };
 
 class SparseCholesky {
  public:
   virtual ~SparseCholesky() = default;
-  static std::unique_ptr<SparseCholesky> Create(CholeskyKind kind);
+  static std::unique_ptr<SparseCholesky> Create(Factorization kind);
 
   // The upper triangle of a symmetric n x n matrix in compressed columns,
   // rows sorted within each column. Called once. `block_sizes`, if not

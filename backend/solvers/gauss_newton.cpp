@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "cairn/graph/runtime.h"
+#include "cairn/linear/domain_cholesky.h"
 #include "cairn/linear/parallel.h"
 #include "cairn/linear/sparse_cholesky.h"
 #include "cairn/linear/serial_scope.h"
@@ -132,6 +133,21 @@ void GaussNewtonProblem::AddResidualBlock(ceres::CostFunction* cost, ceres::Loss
 }
 
 namespace {
+
+// The caller's choice made concrete (kAuto as for one thread: Prepare has
+// already resolved it for the pool's size).
+std::unique_ptr<SparseCholesky> CreateFactorization(CholeskyKind kind) {
+  switch (kind) {
+    case CholeskyKind::kAuto: return CreateFactorization(ResolveCholeskyKind(kind, 1));
+    case CholeskyKind::kTwoHalves: return CreateDomainCholesky();
+    case CholeskyKind::kSupernodal: return SparseCholesky::Create(Factorization::kSupernodal);
+    case CholeskyKind::kSimplicial: return SparseCholesky::Create(Factorization::kSimplicial);
+    case CholeskyKind::kSupernodalOrSimplicial:
+      return SparseCholesky::Create(Factorization::kSupernodalOrSimplicial);
+    case CholeskyKind::kEigenLDLT: return SparseCholesky::Create(Factorization::kEigenLDLT);
+  }
+  return nullptr;
+}
 
 // Chord steps start once a full step lowers chi2 by less than this fraction:
 // by then the problem is close to quadratic and H changes little.
@@ -464,7 +480,7 @@ void GaussNewtonProblem::AnalyzePattern(PreviousAnalysis* previous, const std::v
     return;
   }
   kept.reset();
-  w.cholesky = SparseCholesky::Create(w.linear_solver);
+  w.cholesky = CreateFactorization(w.linear_solver);
   if (!ordering_hint_.empty()) {
     w.cholesky->SetBlockOrdering(HintedOrdering());
     ordering_hint_.clear();

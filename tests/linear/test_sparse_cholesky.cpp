@@ -69,8 +69,8 @@ Eigen::VectorXd SolveWith(SparseCholesky& chol, const Eigen::MatrixXd& a,
 }
 
 TEST(SparseCholesky, ExtendKeepsTheOrderAndSolvesTheGrownMatrix) {
-  for (CholeskyKind kind : {CholeskyKind::kSupernodal, CholeskyKind::kSimplicial,
-                            CholeskyKind::kSupernodalOrSimplicial}) {
+  for (Factorization kind : {Factorization::kSupernodal, Factorization::kSimplicial,
+                             Factorization::kSupernodalOrSimplicial}) {
     BlockMatrix m;
     m.blocks = 40;
     for (int i = 0; i + 1 < m.blocks; ++i) m.couplings.push_back({i, i + 1});
@@ -108,7 +108,7 @@ TEST(SparseCholesky, ExtendKeepsTheOrderAndSolvesTheGrownMatrix) {
     a = grown.Dense(2);
     b = Eigen::VectorXd::LinSpaced(a.rows(), 3, -1);
     EXPECT_LT((SolveWith(*chol, a, grown_ptr, grown_rows, b) - a.ldlt().solve(b)).norm(), 1e-10)
-        << ToString(kind);
+        << "factorisation " << static_cast<int>(kind);
 
     // A coupling between two old blocks changes an old column: refused,
     // and the factorisation is left as it was.
@@ -177,8 +177,8 @@ TEST_P(TwoHalves, SolveExactly) {
   EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - expected).norm(), 1e-10 * expected.norm());
   // Its factor has the fill of one factorisation in the same order (the
   // separator's block counted dense).
-  auto whole = SparseCholesky::Create(dense ? CholeskyKind::kSupernodal
-                                            : CholeskyKind::kSimplicial);
+  auto whole = SparseCholesky::Create(dense ? Factorization::kSupernodal
+                                            : Factorization::kSimplicial);
   whole->SetBlockOrdering(chol->BlockOrdering());
   whole->Analyze(3 * m.blocks, col_ptr, rows, sizes);
   SolveWith(*whole, a, col_ptr, rows, b);
@@ -227,7 +227,7 @@ TEST(SparseCholesky, TwoHalvesLeaveASmallGraphToOneFactorisation) {
   BlockMatrix m = Grid(6);
   std::vector<int> col_ptr, rows;
   m.Pattern(&col_ptr, &rows);
-  auto chol = SparseCholesky::Create(CholeskyKind::kTwoHalves);
+  auto chol = CreateDomainCholesky();
   chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
   EXPECT_EQ(chol->Method().find("two halves"), std::string::npos) << chol->Method();
   const Eigen::MatrixXd a = m.Dense(9);

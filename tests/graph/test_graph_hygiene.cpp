@@ -7,29 +7,14 @@
 #include <string>
 
 #include "cairn/graph/graph_io.h"
+#include "graph/parse_helpers.h"
 #include "test_util.h"
 
 namespace cairn {
 namespace {
 
-PoseGraph Parse(const std::string& text, ReadOptions options = {}) {
-  std::istringstream in(text);
-  return ReadGraph(in, "in.g2o", options);
-}
-
-// Expects "in.g2o:LINE: ..." containing `what`.
-void ExpectError(const std::string& text, size_t line, const std::string& what,
-                 ReadOptions options = {}) {
-  try {
-    Parse(text, options);
-    ADD_FAILURE() << "no error for:\n" << text;
-  } catch (const ParseError& e) {
-    EXPECT_EQ(e.line(), line) << e.what();
-    EXPECT_EQ(std::string(e.what()).rfind("in.g2o:" + std::to_string(line) + ": ", 0), 0u)
-        << e.what();
-    EXPECT_NE(e.message().find(what), std::string::npos) << e.what();
-  }
-}
+using testing::ExpectError;
+using testing::Parse;
 
 std::string Written(const PoseGraph& g) {
   std::ostringstream out;

@@ -10,30 +10,14 @@
 #include "cairn/graph/chi2.h"
 #include "cairn/graph/graph_io.h"
 #include "cairn/graph/output_files.h"
+#include "graph/parse_helpers.h"
 #include "test_util.h"
 
 namespace cairn {
 namespace {
 
-PoseGraph Parse(const std::string& text, ReadOptions options = {}) {
-  std::istringstream in(text);
-  return ReadGraph(in, "test.g2o", options);
-}
-
-// Expects a ParseError whose message names `line` and contains `what`.
-void ExpectError(const std::string& text, size_t line, const std::string& what,
-                 ReadOptions options = {}) {
-  try {
-    Parse(text, options);
-    ADD_FAILURE() << "no error for:\n" << text;
-  } catch (const ParseError& e) {
-    EXPECT_EQ(e.line(), line) << e.what();
-    EXPECT_NE(std::string(e.what()).find("test.g2o:" + std::to_string(line) + ": "),
-              std::string::npos)
-        << e.what();
-    EXPECT_NE(e.message().find(what), std::string::npos) << e.what();
-  }
-}
+using testing::ExpectError;
+using testing::Parse;
 
 const char* kSE2 =
     "VERTEX_SE2 0 0 0 0\n"

@@ -12,6 +12,7 @@
 #include "tools/args.h"
 #include "tools/command.h"
 #include "tools/json.h"
+#include "tools/outputs.h"
 
 namespace cairn::tools {
 namespace {
@@ -203,11 +204,16 @@ int RunCalibrate(int argc, char** argv) {
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
   if (!CheckInputs(a)) return 2;
+  // Both outputs or neither: a calibration refused writes no pairs either.
+  CommandOutputs outputs;
+  for (const std::string* in : {&a.pairs_path, &a.carmen, &a.g2o, &a.odometry})
+    outputs.Input(*in);
+  outputs.Output(a.json);
+  outputs.Output(a.pairs_out);
+  outputs.Check();
 
   std::string source;
   const CalibrationData data = ReadData(a, &source);
-  if (!a.pairs_out.empty())
-    WriteFileAtomically(a.pairs_out, [&](std::ostream& os) { WriteCalibrationPairs(data, os); });
 
   CalibrationResult r;
   try {
@@ -216,9 +222,11 @@ int RunCalibrate(int argc, char** argv) {
     PrintError(source + ": cannot calibrate: " + e.what());
     return 1;
   }
+  if (!a.pairs_out.empty())
+    outputs.Write(a.pairs_out, [&](std::ostream& os) { WriteCalibrationPairs(data, os); });
   if (!a.json.empty())
-    WriteFileAtomically(a.json,
-                        [&](std::ostream& os) { os << DumpJson(CalibrationJson(r, source, data)); });
+    outputs.Write(a.json, [&](std::ostream& os) { os << DumpJson(CalibrationJson(r, source, data)); });
+  outputs.Commit();
   if (!a.quiet) PrintSummary(r, source, data);
   if (r.max_disagreement > kAgreement) {
     PrintError("the three methods disagree by " + std::to_string(r.max_disagreement) +

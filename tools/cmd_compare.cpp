@@ -13,6 +13,7 @@
 #include "tools/args.h"
 #include "tools/command.h"
 #include "tools/json.h"
+#include "tools/outputs.h"
 
 namespace cairn::tools {
 namespace {
@@ -222,6 +223,10 @@ int RunCompare(int argc, char** argv) {
   ReadOptions ro;
   ro.keep_unknown = Globals().keep_unknown;
   const InitMethod init_method = ParseInitMethod(a.init);
+  CommandOutputs outputs;
+  outputs.Input(a.path);
+  outputs.Output(a.json);
+  outputs.Check();
   PoseGraph input = ReadGraph(a.path, ro);
   const InitReport init_report = Initialize(input, init_method);
   if (!a.quiet)
@@ -238,7 +243,8 @@ int RunCompare(int argc, char** argv) {
   PrintTable(c, g, d, chi2_rel);
   if (!a.json.empty()) {
     const Json j = CompareJson(a.path, init_method, init_report, runs, d, chi2_rel);
-    WriteFileAtomically(a.json, [&](std::ostream& os) { os << DumpJson(j); });
+    outputs.Write(a.json, [&](std::ostream& os) { os << DumpJson(j); });
+    outputs.Commit();
   }
   const bool agree = d.max_translation <= a.tol_m && d.max_rotation_deg <= a.tol_deg &&
                      chi2_rel <= a.tol_chi2;

@@ -9,6 +9,7 @@
 #include "cairn/robust/corrupt.h"
 #include "tools/args.h"
 #include "tools/command.h"
+#include "tools/outputs.h"
 
 namespace cairn::tools {
 namespace {
@@ -43,6 +44,12 @@ int RunCorrupt(int argc, char** argv) {
     return 2;
   }
   if (list.empty()) list = out + ".outliers.txt";
+  // The graph and its list go in place together, and only once both are written.
+  CommandOutputs outputs;
+  outputs.Input(in);
+  outputs.Output(out, ".g2o");
+  outputs.Output(list);
+  outputs.Check();
   ReadOptions read_options;
   read_options.keep_unknown = Globals().keep_unknown;
   PoseGraph graph = ReadGraph(in, read_options);
@@ -56,11 +63,12 @@ int RunCorrupt(int argc, char** argv) {
     PrintError(e.what());
     return 1;
   }
-  WriteG2o(graph, out);
-  WriteFileAtomically(list, [&](std::ostream& os) {
+  outputs.Write(out, [&](std::ostream& os) { WriteG2o(graph, os); });
+  outputs.Write(list, [&](std::ostream& os) {
     os << "# wrong loop closures added to " << in << " (seed " << seed << "): FROM TO\n";
     for (const auto& [a, b] : added) os << a << " " << b << "\n";
   });
+  outputs.Commit();
   std::fprintf(stderr, "%s: added %zu wrong loop closures -> %s (list: %s)\n", in.c_str(),
                added.size(), out.c_str(), list.c_str());
   return 0;

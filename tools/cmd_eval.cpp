@@ -9,6 +9,7 @@
 #include "tools/args.h"
 #include "tools/command.h"
 #include "tools/json.h"
+#include "tools/outputs.h"
 
 namespace cairn::tools {
 namespace {
@@ -35,6 +36,11 @@ int RunEval(int argc, char** argv) {
     PrintError("--segment must be positive");
     return 2;
   }
+  CommandOutputs outputs;
+  outputs.Input(est_path);
+  outputs.Input(ref_path);
+  outputs.Output(json_path);
+  outputs.Check();
   const frontend::Trajectory est = frontend::ReadTrajectory(est_path);
   const frontend::Trajectory ref = frontend::ReadTrajectory(ref_path);
   const frontend::TrajectoryErrors e = frontend::EvaluateTrajectory(est, ref, segment);
@@ -52,7 +58,7 @@ int RunEval(int argc, char** argv) {
             << e.rpe_trans_rmse << " m, " << e.rpe_rot_rmse_deg << " deg over " << e.rpe_pairs
             << " segments\n";
   if (!json_path.empty()) {
-    WriteFileAtomically(json_path, [&](std::ostream& o) {
+    outputs.Write(json_path, [&](std::ostream& o) {
       Json j;
       PutNumber(j, "ate_rmse", e.ate_rmse);
       PutNumber(j, "rpe_trans_rmse", e.rpe_trans_rmse);
@@ -60,6 +66,7 @@ int RunEval(int argc, char** argv) {
       j["matched"] = e.matched;
       o << DumpJson(j);
     });
+    outputs.Commit();
   }
   return 0;
 }

@@ -14,6 +14,7 @@
 #include "cairn/frontend/trajectory.h"
 #include "tools/args.h"
 #include "tools/command.h"
+#include "tools/outputs.h"
 
 namespace cairn::tools {
 namespace {
@@ -77,15 +78,31 @@ bool MakeMapperOptions(const MapArgs& a, frontend::MapperOptions* mo) {
   return true;
 }
 
-// The grid (PGM, YAML, PNG), the keyframes' trajectory (TUM, SVG) and the
-// graph when asked; returns the trajectory.
+// Every file the command writes, declared and checked before the log is
+// read: the grid (PGM, YAML, PNG), the keyframes' trajectory (TUM, SVG), the
+// graph and the reference map when asked.
+void DeclareFiles(const MapArgs& a, CommandOutputs& outputs) {
+  outputs.Input(a.log_path);
+  outputs.Output(a.prefix + ".pgm");
+  outputs.Output(a.prefix + ".yaml");
+  outputs.Output(a.prefix + ".png");
+  outputs.Output(a.prefix + "_trajectory.tum");
+  outputs.Output(a.prefix + "_trajectory.svg");
+  outputs.Output(a.graph_path, ".g2o");
+  outputs.Output(a.reference_map, ".png");
+  outputs.Check();
+}
+
+// Writes the declared outputs but the reference map, each to its temporary
+// (OutputSet::Commit puts them in place); returns the trajectory.
 frontend::Trajectory WriteOutputs(const MapArgs& a, const frontend::CarmenLog& log,
                                   const frontend::MapResult& res,
-                                  const frontend::OccupancyGrid& grid) {
+                                  const frontend::OccupancyGrid& grid,
+                                  CommandOutputs& outputs) {
   const std::string& prefix = a.prefix;
-  WriteFileAtomically(prefix + ".pgm", [&](std::ostream& o) { frontend::WritePgm(grid.ToTrinary(), o); });
-  WriteFileAtomically(prefix + ".yaml", [&](std::ostream& o) { o << grid.Yaml(Basename(prefix) + ".pgm"); });
-  WriteFileAtomically(prefix + ".png", [&](std::ostream& o) { frontend::WritePng(grid.ToGray(), o); });
+  outputs.Write(prefix + ".pgm", [&](std::ostream& o) { frontend::WritePgm(grid.ToTrinary(), o); });
+  outputs.Write(prefix + ".yaml", [&](std::ostream& o) { o << grid.Yaml(Basename(prefix) + ".pgm"); });
+  outputs.Write(prefix + ".png", [&](std::ostream& o) { frontend::WritePng(grid.ToGray(), o); });
   frontend::Trajectory traj;
   std::vector<SE2> kf_poses;
   for (size_t k = 0; k < res.keyframes.size(); ++k) {
@@ -93,12 +110,13 @@ frontend::Trajectory WriteOutputs(const MapArgs& a, const frontend::CarmenLog& l
     kf_poses.push_back(ToSE2(res.graph.vertex(static_cast<int64_t>(k)).x));
     traj.Add(log.scans[s].timestamp, kf_poses.back(), static_cast<long>(s), log.scans[s].timestamp_text);
   }
-  frontend::WriteTum(traj, prefix + "_trajectory.tum");
-  WriteFileAtomically(prefix + "_trajectory.svg", [&](std::ostream& o) {
+  outputs.Write(prefix + "_trajectory.tum", [&](std::ostream& o) { frontend::WriteTum(traj, o); });
+  outputs.Write(prefix + "_trajectory.svg", [&](std::ostream& o) {
     WriteSvgPlot(o, {TrajectoryPanel({{"dead reckoning", "#d62728", res.dead_reckoning},
                                       {"optimised keyframes", "#1f77b4", kf_poses}})});
   });
-  if (!a.graph_path.empty()) WriteG2o(res.graph, a.graph_path);
+  if (!a.graph_path.empty())
+    outputs.Write(a.graph_path, [&](std::ostream& o) { WriteG2o(res.graph, o); });
   return traj;
 }
 
@@ -143,6 +161,8 @@ int RunMap(int argc, char** argv) {
   if (!args.Parse(argc, argv, &code)) return code;
   frontend::MapperOptions mo;
   if (!MakeMapperOptions(a, &mo)) return 2;
+  CommandOutputs outputs;
+  DeclareFiles(a, outputs);
   const auto t_all = Clock::now();
   auto t = Clock::now();
   const frontend::CarmenLog log = frontend::ReadCarmenLog(a.log_path);
@@ -162,11 +182,12 @@ int RunMap(int argc, char** argv) {
     std::vector<SE2> ref_poses;
     for (const auto& s : log.scans) ref_poses.push_back(s.reference);
     const frontend::OccupancyGrid ref_grid = frontend::BuildOccupancyGrid(log, ref_poses, res.max_range, go);
-    WriteFileAtomically(a.reference_map, [&](std::ostream& o) { frontend::WritePng(ref_grid.ToGray(), o); });
+    outputs.Write(a.reference_map, [&](std::ostream& o) { frontend::WritePng(ref_grid.ToGray(), o); });
   }
 
   t = Clock::now();
-  const frontend::Trajectory traj = WriteOutputs(a, log, res, grid);
+  const frontend::Trajectory traj = WriteOutputs(a, log, res, grid, outputs);
+  outputs.Commit();
   const double t_write = Since(t);
 
   const auto& st = res.stats;

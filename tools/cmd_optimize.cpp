@@ -17,6 +17,7 @@
 #include "tools/args.h"
 #include "tools/command.h"
 #include "tools/json.h"
+#include "tools/outputs.h"
 
 namespace cairn::tools {
 namespace {
@@ -245,7 +246,7 @@ struct Timings {
 
 // The library's report with the command's context, the rejected loop
 // closures first and the covariances last.
-void WriteReport(const OptimizeArgs& a, const OptimizePlan& p, const PoseGraph& graph,
+std::string ReportJson(const OptimizeArgs& a, const OptimizePlan& p, const PoseGraph& graph,
                  const SolveResult& result, const Timings& t,
                  const std::vector<VertexPair>& rejected,
                  const std::vector<Eigen::MatrixXd>& covariances) {
@@ -289,7 +290,17 @@ void WriteReport(const OptimizeArgs& a, const OptimizePlan& p, const PoseGraph& 
       PutMatrix(cov, std::to_string(p.covariance_of[k]), covariances[k]);
     j["covariance"] = std::move(cov);
   }
-  WriteFileAtomically(a.report, [&](std::ostream& os) { os << DumpJson(j); });
+  return DumpJson(j);
+}
+
+// Every path checked before the input is read: a bad --report must not
+// cost a solve, and must leave -o as it was.
+void DeclareFiles(const OptimizeArgs& a, CommandOutputs& outputs) {
+  outputs.Input(a.in);
+  outputs.Output(a.out, ".g2o");
+  outputs.Output(a.report);
+  outputs.Output(a.plot, ".svg");
+  outputs.Check();
 }
 
 int RunOptimize(int argc, char** argv) {
@@ -307,6 +318,9 @@ int RunOptimize(int argc, char** argv) {
   if (!args.Parse(argc, argv, &code)) return code;
   OptimizePlan p;
   if (!MakePlan(a, &p)) return 2;
+
+  CommandOutputs outputs;
+  DeclareFiles(a, outputs);
 
   ReadOptions read_options;
   read_options.strict = a.strict;
@@ -328,9 +342,6 @@ int RunOptimize(int argc, char** argv) {
   std::vector<VertexPair> rejected;
   const SolveResult result =
       a.reject_outliers ? SolveRejecting(graph, a, p, &rejected) : Solve(graph, p);
-  // A failed solve leaves no output behind (the report still says why).
-  if (result.usable) WriteFileAtomically(a.out, [&](std::ostream& os) { WriteG2o(graph, os); });
-
   std::vector<Eigen::MatrixXd> covariances;
   // Not from a failed solve: the estimate is no optimum.
   if (!p.covariance_of.empty() && result.usable) {
@@ -341,12 +352,19 @@ int RunOptimize(int argc, char** argv) {
       return 1;
     }
   }
-  if (!a.report.empty()) WriteReport(a, p, graph, result, t, rejected, covariances);
+  // A failed solve leaves -o as it was (the report still says why); the
+  // rest go in place together or not at all.
+  if (result.usable) outputs.Write(a.out, [&](std::ostream& os) { WriteG2o(graph, os); });
+  if (!a.report.empty()) {
+    const std::string json = ReportJson(a, p, graph, result, t, rejected, covariances);
+    outputs.Write(a.report, [&](std::ostream& os) { os << json; });
+  }
   if (!a.plot.empty()) {
     PlotPanel pa{&before, "before: chi2 " + Number(Chi2(before)), "#888888"};
     PlotPanel pb{&graph, "after: chi2 " + Number(result.final_chi2)};
-    WriteFileAtomically(a.plot, [&](std::ostream& os) { WriteSvgPlot(os, {pa, pb}, a.in); });
+    outputs.Write(a.plot, [&](std::ostream& os) { WriteSvgPlot(os, {pa, pb}, a.in); });
   }
+  outputs.Commit();
   if (!a.quiet) {
     std::fprintf(stderr, "%s: chi2 %.10g -> %.10g, %d iterations, %.3f s (%s)\n", a.in.c_str(),
                  result.initial_chi2, result.final_chi2, result.iterations, result.time_s,

@@ -7,6 +7,7 @@
 #include "cairn/graph/simulate.h"
 #include "tools/args.h"
 #include "tools/command.h"
+#include "tools/outputs.h"
 
 namespace cairn::tools {
 namespace {
@@ -52,10 +53,15 @@ int RunSimulate(int argc, char** argv) {
   }
   if (truth_path.empty()) truth_path = DefaultTruthPath(out);
   o.seed = static_cast<uint64_t>(seed);
+  CommandOutputs outputs;
+  outputs.Output(out, ".g2o");
+  outputs.Output(truth_path, ".g2o");
+  outputs.Check();
 
   const Simulation sim = Simulate(o);
-  WriteG2o(sim.noisy, out);
-  WriteG2o(sim.truth, truth_path);
+  outputs.Write(out, [&](std::ostream& os) { WriteG2o(sim.noisy, os); });
+  outputs.Write(truth_path, [&](std::ostream& os) { WriteG2o(sim.truth, os); });
+  outputs.Commit();
   std::fprintf(stderr,
                "wrote %s (%zu vertices, %zu odometry edges, %zu loop closures of which %zu "
                "wrong; chi2 %.6g) and %s\n",

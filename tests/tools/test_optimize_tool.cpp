@@ -120,10 +120,10 @@ TEST(OptimizeTool, BadInputNamesFileAndLine) {
   std::ofstream(path) << "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0\n";
   int status = 0;
   const std::string out = testing::RunCommand(
-      Tool() + " optimize '" + path + "' -o '" + path + ".out' 2>&1", &status);
+      Tool() + " optimize '" + path + "' -o '" + path + ".out.g2o' 2>&1", &status);
   EXPECT_NE(status, 0);
   EXPECT_NE(out.find("cairn: " + path + ":3: "), std::string::npos) << out;
-  EXPECT_FALSE(std::filesystem::exists(path + ".out"));
+  EXPECT_FALSE(std::filesystem::exists(path + ".out.g2o"));
 }
 
 TEST(OptimizeTool, RejectsBadOptions) {

@@ -549,6 +549,7 @@ double GaussNewtonProblem::Evaluate(bool jacobians) {
       thread_local std::vector<double> ambient;
       if (params.size() < w.max_arity) params.resize(w.max_arity), jac.resize(w.max_arity);
       if (ambient.size() < w.max_ambient) ambient.resize(w.max_ambient);
+      double* const scratch = ambient.data();
       for (size_t k = begin; k < end; ++k) {
         const Residual& res = residuals_[k];
         const int m = res.cost->num_residuals();
@@ -558,7 +559,7 @@ double GaussNewtonProblem::Evaluate(bool jacobians) {
           params[p] = blk.values;
           jac[p] = nullptr;
           if (jacobians && w.jac_local_off[w.slot_start[k] + static_cast<int>(p)] >= 0) {
-            jac[p] = ambient.data() + used;
+            jac[p] = scratch + used;
             used += static_cast<size_t>(m) * blk.size;
           }
         }

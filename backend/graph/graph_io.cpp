@@ -16,6 +16,7 @@
 #include <iostream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <vector>
@@ -188,35 +189,37 @@ class Reader {
 
   PoseGraph Finish(size_t lines) {
     if (dimension_ == 0) throw ParseError(name_, lines, "empty file: no vertices or edges");
-    PoseGraph graph(dimension_);
-    const bool edges_only = vertices_.empty();
-    for (const Vertex& v : vertices_) graph.AddVertex(v.id, v.x);
+    PoseGraph& graph = *graph_;
+    const bool edges_only = graph.vertices().empty();
     if (edges_only) {
       // No VERTEX lines: every endpoint becomes a vertex, placed later by
       // chaining the measurements.
       std::set<int64_t> ids;
-      for (const auto& p : edges_) {
-        ids.insert(p.edge.from);
-        if (!p.edge.IsPrior()) ids.insert(p.edge.to);
-      }
+      for (const auto& chunk : edge_chunks_)
+        for (const auto& p : chunk) {
+          ids.insert(p.edge.from);
+          if (!p.edge.IsPrior()) ids.insert(p.edge.to);
+        }
       for (int64_t id : ids) graph.AddVertex(id, graph.dimension() == 2 ? ToParams(SE2()) : ToParams(SE3()));
     }
-    // Edges move from the pending queue into the graph one by one, the queue
-    // releasing its blocks as it goes: a large file's edges are held about
-    // once, not twice, at the peak.
-    graph.mutable_edges().reserve(edges_.size());
-    for (; !edges_.empty(); edges_.pop_front()) {
-      const PendingEdge& p = edges_.front();
-      for (int64_t id : {p.edge.from, p.edge.to}) {
-        if (id == p.edge.to && p.edge.IsPrior()) continue;
-        if (!graph.HasVertex(id))
+    // Edges move from the pending chunks into the graph, each chunk released
+    // once moved: a large file's edges are held about once, not twice, at
+    // the peak.
+    graph.mutable_edges().reserve(edge_count_);
+    for (auto& chunk : edge_chunks_) {
+      for (const PendingEdge& p : chunk) {
+        for (int64_t id : {p.edge.from, p.edge.to}) {
+          if (id == p.edge.to && p.edge.IsPrior()) continue;
+          if (!graph.HasVertex(id))
+            throw ParseError(name_, p.line,
+                             "edge to vertex " + std::to_string(id) + ", which does not exist");
+        }
+        if (!p.edge.IsPrior() && p.edge.from == p.edge.to)
           throw ParseError(name_, p.line,
-                           "edge to vertex " + std::to_string(id) + ", which does not exist");
+                           "edge joins vertex " + std::to_string(p.edge.from) + " to itself");
+        graph.AddEdge(p.edge);
       }
-      if (!p.edge.IsPrior() && p.edge.from == p.edge.to)
-        throw ParseError(name_, p.line,
-                         "edge joins vertex " + std::to_string(p.edge.from) + " to itself");
-      graph.AddEdge(p.edge);
+      std::vector<PendingEdge>().swap(chunk);
     }
     for (const auto& [id, line] : fixed_) {
       if (!graph.HasVertex(id))
@@ -225,7 +228,7 @@ class Reader {
     }
     for (VerbatimLine& l : graph_lines_) graph.AddVerbatimLine(std::move(l));
     if (edges_only) ChainAlongSpanningTree(graph);
-    return graph;
+    return std::move(graph);
   }
 
  private:
@@ -363,6 +366,7 @@ class Reader {
     if (dimension_ == 0) {
       dimension_ = dim;
       first_line_ = f.tag();
+      graph_.emplace(dim);
     } else if (dimension_ != dim) {
       f.Fail(f.tag() + " in a " + std::to_string(dimension_) + "D file (it began with " +
              first_line_ + "): SE2 and SE3 cannot be mixed");
@@ -372,13 +376,18 @@ class Reader {
   void AddVertex(const Fields& f, const PoseParams& x) {
     CheckPose(f, x, "theta");
     const int64_t id = f.Id(1);
-    if (!vertex_ids_.insert(id).second) f.Fail("duplicate vertex id " + std::to_string(id));
-    vertices_.push_back(Vertex{id, x, false});
+    if (graph_->HasVertex(id)) f.Fail("duplicate vertex id " + std::to_string(id));
+    graph_->AddVertex(id, x);
   }
 
   void AddEdge(const Fields& f, const Edge& e) {
     CheckPose(f, e.z, e.IsPrior() ? "theta" : "dtheta");
-    edges_.push_back({e, f.line()});
+    if (edge_chunks_.empty() || edge_chunks_.back().size() == kEdgeChunk) {
+      edge_chunks_.emplace_back();
+      edge_chunks_.back().reserve(kEdgeChunk);
+    }
+    edge_chunks_.back().push_back({e, f.line()});
+    ++edge_count_;
   }
 
   // A pose's translation and (2D) heading within the sane ranges; 3D
@@ -395,7 +404,7 @@ class Reader {
   void Unknown(const Fields& f, const std::string& raw) {
     if (!options_.keep_unknown)
       f.Fail("unknown tag '" + f.tag() + "' (--keep-unknown keeps such lines verbatim)");
-    graph_lines_.push_back({vertices_.size(), edges_.size(), raw});
+    graph_lines_.push_back({graph_ ? graph_->vertices().size() : 0, edge_count_, raw});
   }
 
   Edge Between(const Fields& f) const {
@@ -418,9 +427,15 @@ class Reader {
   ReadOptions options_;
   int dimension_ = 0;
   std::string first_line_;
-  std::vector<Vertex> vertices_;
-  std::set<int64_t> vertex_ids_;
-  std::deque<PendingEdge> edges_;
+  // Built as vertices are read (no second copy of them); edges wait until
+  // every vertex is known.
+  std::optional<PoseGraph> graph_;
+  // Pending edges in chunks larger than glibc's largest mmap threshold
+  // (32 MB), so that each one freed goes back to the system; a deque's
+  // small blocks stayed in the heap and the edges were held twice.
+  static constexpr size_t kEdgeChunk = size_t{1} << 17;
+  std::vector<std::vector<PendingEdge>> edge_chunks_;
+  size_t edge_count_ = 0;
   std::vector<std::pair<int64_t, size_t>> fixed_;
   std::map<int64_t, bool> offsets_;  // parameter id -> is identity
   std::vector<VerbatimLine> graph_lines_;

@@ -37,14 +37,16 @@ struct GaussNewtonProblem::Residual {
 
 // Everything a solve needs, allocated once before the first iteration.
 struct GaussNewtonProblem::Workspace {
-  // Per residual: its values, and for each parameter block the ambient
-  // Jacobian (rows x size, Ceres's row-major layout) and the local one.
+  // Per residual: its values, and for each parameter block the local
+  // (tangent) Jacobian. The ambient one (rows x size, Ceres's row-major
+  // layout) lives only in a worker's scratch while the local one is made
+  // from it: kept for every residual it cost as much again (3D: more).
   // Slot slot_start[k] + p is residual k's p-th parameter block.
   std::vector<int> residual_offset;  // into r
   std::vector<int> slot_start;
-  std::vector<int> jac_ambient_off;  // per slot, into jac_ambient; -1 for a constant block
-  std::vector<int> jac_local_off;    // per slot, into jac_local
-  std::vector<double> r, jac_ambient, jac_local;
+  std::vector<int> jac_local_off;    // per slot, into jac_local; -1 for a constant block
+  std::vector<double> r, jac_local;
+  size_t max_ambient = 1;  // the most doubles one residual's ambient Jacobians take
   std::vector<double> chi2_terms;                  // per residual, rho(|r|^2)
   // Per variable block: the manifold's PlusJacobian (size x tangent).
   std::vector<int> plus_jac_off;
@@ -310,7 +312,7 @@ void GaussNewtonProblem::NumberVariables() {
 // Residual and Jacobian storage, and the manifolds' PlusJacobians.
 void GaussNewtonProblem::AllocateJacobians() {
   Workspace& w = *ws_;
-  int r_total = 0, ja_total = 0, jl_total = 0, slots = 0;
+  int r_total = 0, jl_total = 0, slots = 0;
   w.residual_offset.resize(residuals_.size());
   w.slot_start.resize(residuals_.size() + 1);
   for (size_t k = 0; k < residuals_.size(); ++k) {
@@ -318,25 +320,24 @@ void GaussNewtonProblem::AllocateJacobians() {
     slots += static_cast<int>(residuals_[k].blocks.size());
   }
   w.slot_start[residuals_.size()] = slots;
-  w.jac_ambient_off.resize(slots);
   w.jac_local_off.resize(slots);
   for (size_t k = 0; k < residuals_.size(); ++k) {
     const int m = residuals_[k].cost->num_residuals();
     w.residual_offset[k] = r_total;
     r_total += m;
+    size_t ambient = 0;
     for (size_t p = 0; p < residuals_[k].blocks.size(); ++p) {
       const Block& blk = blocks_[residuals_[k].blocks[p]];
       const int slot = w.slot_start[k] + static_cast<int>(p);
-      w.jac_ambient_off[slot] = blk.variable >= 0 ? ja_total : -1;
       w.jac_local_off[slot] = blk.variable >= 0 ? jl_total : -1;
       if (blk.variable >= 0) {
-        ja_total += m * blk.size;
+        ambient += static_cast<size_t>(m) * blk.size;
         jl_total += m * blk.tangent;
       }
     }
+    w.max_ambient = std::max(w.max_ambient, ambient);
   }
   w.r.resize(r_total);
-  w.jac_ambient.resize(ja_total);
   w.jac_local.resize(jl_total);
   w.chi2_terms.resize(residuals_.size());
   const int nvar = static_cast<int>(w.variables.size());
@@ -561,16 +562,22 @@ double GaussNewtonProblem::Evaluate(bool jacobians) {
       // Per worker thread, grown once: no allocation once iterating.
       thread_local std::vector<const double*> params;
       thread_local std::vector<double*> jac;
+      thread_local std::vector<double> ambient;
       if (params.size() < w.max_arity) params.resize(w.max_arity), jac.resize(w.max_arity);
+      if (ambient.size() < w.max_ambient) ambient.resize(w.max_ambient);
+      double* const scratch = ambient.data();
       for (size_t k = begin; k < end; ++k) {
         const Residual& res = residuals_[k];
         const int m = res.cost->num_residuals();
+        size_t used = 0;
         for (size_t p = 0; p < res.blocks.size(); ++p) {
-          params[p] = blocks_[res.blocks[p]].values;
-          const int slot = w.slot_start[k] + static_cast<int>(p);
-          jac[p] = jacobians && w.jac_ambient_off[slot] >= 0
-                       ? w.jac_ambient.data() + w.jac_ambient_off[slot]
-                       : nullptr;
+          const Block& blk = blocks_[res.blocks[p]];
+          params[p] = blk.values;
+          jac[p] = nullptr;
+          if (jacobians && w.jac_local_off[w.slot_start[k] + static_cast<int>(p)] >= 0) {
+            jac[p] = scratch + used;
+            used += static_cast<size_t>(m) * blk.size;
+          }
         }
         double* r = w.r.data() + w.residual_offset[k];
         if (!res.cost->Evaluate(params.data(), r, jacobians ? jac.data() : nullptr)) {

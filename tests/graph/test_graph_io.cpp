@@ -207,6 +207,39 @@ TEST(ReadG2oErrors, EveryKindOfBadInput) {
               2, "no PARAMS_SE3OFFSET");
 }
 
+// The reader holds pending edges in chunks of 131,072: more edges than two
+// chunks must all arrive, in file order, and an error past the first chunk
+// must still name its own line.
+TEST(ReadG2o, EdgesBeyondOnePendingChunk) {
+  const int n = 300000;
+  std::string text;
+  text.reserve(size_t{n} * 48);
+  char buf[96];
+  for (int i = 0; i < n; ++i) {
+    std::snprintf(buf, sizeof buf, "VERTEX_SE2 %d %d 0 0\n", i, i);
+    text += buf;
+  }
+  for (int i = 0; i + 1 < n; ++i) {
+    std::snprintf(buf, sizeof buf, "EDGE_SE2 %d %d 1 0 %.17g %d 0 0 %d 0 1\n", i, i + 1, i * 1e-6,
+                  1 + i % 7, 1 + i % 5);
+    text += buf;
+  }
+  const PoseGraph g = Parse(text);
+  ASSERT_EQ(g.vertices().size(), size_t{n});
+  ASSERT_EQ(g.edges().size(), size_t{n - 1});
+  for (int i = 0; i + 1 < n; ++i) {
+    const Edge& e = g.edges()[i];
+    ASSERT_EQ(e.from, i);
+    ASSERT_EQ(e.to, i + 1);
+    ASSERT_EQ(e.z[2], i * 1e-6);
+    ASSERT_EQ(e.information(0, 0), 1 + i % 7);
+    ASSERT_EQ(e.information(1, 1), 1 + i % 5);
+  }
+  // A missing endpoint on the last line, well into the third chunk.
+  const std::string bad = text + "EDGE_SE2 5 300001 1 0 0 1 0 0 1 0 1\n";
+  ExpectError(bad, 2 * n, "edge to vertex 300001, which does not exist");
+}
+
 TEST(ReadG2oErrors, MissingFileAndDirectory) {
   EXPECT_THROW(ReadGraph("/nonexistent/graph.g2o"), std::runtime_error);
   EXPECT_THROW(ReadGraph(std::filesystem::path(cairn::testing::TempDir()).string()), std::runtime_error);

@@ -96,6 +96,58 @@ void ExpectSamePoses(const PoseGraph& a, const PoseGraph& b, double tol_m, doubl
   EXPECT_LT(d.max_rotation_deg * M_PI / 180.0, tol_rad);
 }
 
+// r = a + B b + C c - t over blocks of sizes 2, 4 and 3: the worker's
+// scratch for the ambient Jacobians is laid out per residual, the constant
+// block in the middle taking none of it, and only a manifold's Jacobian goes
+// through PlusJacobian.
+struct ThreeBlockResidual {
+  explicit ThreeBlockResidual(double t) : t_(t) {}
+  template <typename T>
+  bool operator()(const T* a, const T* b, const T* c, T* r) const {
+    r[0] = a[0] + 2.0 * b[0] - b[3] + t_ * c[0] - t_;
+    r[1] = a[1] + b[1] + 3.0 * c[1] - t_ * c[2] + 0.5 * t_;
+    r[2] = t_ * a[0] - a[1] + b[2] + c[2] + c[0] - 2.0 * t_;
+    return true;
+  }
+  double t_;
+};
+
+TEST(GaussNewton, MixedBlockSizesAndAConstantBlockInTheMiddle) {
+  double a[2] = {0, 0}, b[4] = {1, 2, 3, 4}, c[3] = {0.5, 0.5, 0.5};
+  ceres::EuclideanManifold<3> c_manifold;
+  GaussNewtonProblem problem;
+  problem.AddParameterBlock(c, 3, &c_manifold);
+  for (double t : {1.0, -2.0, 0.25, 4.0}) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<ThreeBlockResidual, 3, 2, 4, 3>(new ThreeBlockResidual(t)),
+        nullptr, {a, b, c});
+  }
+  problem.SetParameterBlockConstant(b);
+  GaussNewtonOptions options;
+  options.max_iterations = 5;
+  problem.Solve(options);
+  // The same linear least squares in a and c (b held), solved densely.
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(12, 5);
+  Eigen::VectorXd y(12);
+  int row = 0;
+  for (double t : {1.0, -2.0, 0.25, 4.0}) {
+    J.row(row) << 1, 0, t, 0, 0;
+    y[row++] = t - (2.0 * 1 - 4);
+    J.row(row) << 0, 1, 0, 3, -t;
+    y[row++] = -0.5 * t - 2;
+    J.row(row) << t, -1, 1, 0, 1;
+    y[row++] = 2.0 * t - 3;
+  }
+  const Eigen::VectorXd x = J.colPivHouseholderQr().solve(y);
+  EXPECT_NEAR(a[0], x[0], 1e-8);
+  EXPECT_NEAR(a[1], x[1], 1e-8);
+  EXPECT_NEAR(c[0], x[2], 1e-8);
+  EXPECT_NEAR(c[1], x[3], 1e-8);
+  EXPECT_NEAR(c[2], x[4], 1e-8);
+  EXPECT_EQ(b[0], 1);
+  EXPECT_EQ(b[3], 4);
+}
+
 class SameOptimumAsCeres : public ::testing::TestWithParam<int> {};
 
 TEST_P(SameOptimumAsCeres, OnSimulatedGraph) {

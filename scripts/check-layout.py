@@ -14,6 +14,7 @@ Usage: scripts/check-layout.py [REPO]   (exit 1 and one line per breach)
 """
 import os
 import re
+import shutil
 import subprocess
 import sys
 from collections import defaultdict
@@ -125,7 +126,9 @@ def check_public_headers(repo, breaches):
 def check_function_lengths(repo, breaches):
     folders = [f for f in AREAS if os.path.isdir(os.path.join(repo, f))]
     try:
-        tags = subprocess.run(["ctags", "--fields=+ne", "--kinds-C++=f", "-o", "-", "-R"] + folders,
+        # Debian names Universal Ctags ctags-universal (ctags is an alternative).
+        ctags = shutil.which("ctags-universal") or "ctags"
+        tags = subprocess.run([ctags, "--fields=+ne", "--kinds-C++=f", "-o", "-", "-R"] + folders,
                               cwd=repo, capture_output=True, text=True, check=True).stdout
     except (OSError, subprocess.CalledProcessError) as e:
         breaches.append(f"ctags (Universal Ctags) could not run: {e}")

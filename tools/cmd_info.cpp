@@ -32,7 +32,6 @@ int RunInfo(int argc, char** argv) {
   if (!args.Parse(argc, argv, &code)) return code;
 
   ReadOptions options;
-  options.strict = strict;
   options.keep_unknown = Globals().keep_unknown;
   const PoseGraph graph = ReadGraph(path, options);
   const size_t components = ConnectedComponents(graph).size();

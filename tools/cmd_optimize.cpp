@@ -323,7 +323,6 @@ int RunOptimize(int argc, char** argv) {
   DeclareFiles(a, outputs);
 
   ReadOptions read_options;
-  read_options.strict = a.strict;
   read_options.keep_unknown = Globals().keep_unknown;
   Timings t;
   const auto read_start = std::chrono::steady_clock::now();

@@ -20,10 +20,6 @@ struct ReadOptions {
   // is kept verbatim instead (PoseGraph::verbatim_lines) and WriteG2o writes
   // it back in its place.
   bool keep_unknown = false;
-  // Refusing unknown tags is now the default; kept for callers that set it.
-  bool strict = false;
-  // Unused since no line is skipped any more (kept for callers that set it).
-  std::ostream* warnings = nullptr;
   // A longer line is an error, not a buffer without end (text_input.h).
   size_t max_line_bytes = kDefaultMaxLineBytes;
 };

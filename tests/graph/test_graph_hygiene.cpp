@@ -68,9 +68,8 @@ TEST(GraphHygiene, CoordinatesBeyondTheSaneRangeAreErrors) {
 TEST(GraphHygiene, AnUnknownTagIsAnErrorNamingItsLineAndTag) {
   const std::string text = "VERTEX_SE2 0 0 0 0\nVERTEX_XY 7 1 2\nVERTEX_SE2 1 1 0 0\n";
   ExpectError(text, 2, "unknown tag 'VERTEX_XY'");
-  ReadOptions strict;
-  strict.strict = true;  // the old option: the same answer
-  ExpectError(text, 2, "unknown tag 'VERTEX_XY'", strict);
+  ReadOptions keep_nothing;  // the default options: the same answer
+  ExpectError(text, 2, "unknown tag 'VERTEX_XY'", keep_nothing);
 }
 
 TEST(GraphHygiene, KeptUnknownLinesRoundTripInPlace) {

@@ -161,7 +161,6 @@ TEST(ReadG2o, UnknownTagsFailUnlessKept) {
   const std::string text = std::string(kSE2) + "ROBOTLASER1 1 2 3\nROBOTLASER1 4 5\nFOO\n";
   ExpectError(text, 9, "unknown tag 'ROBOTLASER1'");
   ReadOptions options;
-  options.strict = true;
   ExpectError(text, 9, "unknown tag 'ROBOTLASER1'", options);
   options.keep_unknown = true;
   const PoseGraph g = Parse(text, options);

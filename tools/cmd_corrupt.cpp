@@ -26,7 +26,7 @@ int RunCorrupt(int argc, char** argv) {
       "the file's median loop closure. Writes the graph as g2o and the pairs it added,\n"
       "one 'FROM TO' a line, to OUT.g2o.outliers.txt (or --list).");
   args.Positional("IN", &in, "a .g2o or TORO .graph file");
-  args.Option("output", &out, "OUT.g2o", "where to write the corrupted graph (g2o)");
+  args.Option("output", &out, "OUT.g2o", "where to write the corrupted graph (g2o; TORO if *.graph)");
   args.Alias("-o", "output");
   args.Option("outliers", &outliers, "N", "how many wrong loop closures to add");
   args.Option("fraction", &fraction, "F",
@@ -47,12 +47,13 @@ int RunCorrupt(int argc, char** argv) {
   // The graph and its list go in place together, and only once both are written.
   CommandOutputs outputs;
   outputs.Input(in);
-  outputs.Output(out, ".g2o");
+  outputs.GraphOutput(out);
   outputs.Output(list);
   outputs.Check();
   ReadOptions read_options;
   read_options.keep_unknown = Globals().keep_unknown;
   PoseGraph graph = ReadGraph(in, read_options);
+  outputs.CheckGraphFits(graph);
   if (fraction >= 0)
     outliers = static_cast<int>(
         std::lround(fraction * static_cast<double>(graph.CountEdges(EdgeKind::kLoopClosure))));
@@ -63,7 +64,7 @@ int RunCorrupt(int argc, char** argv) {
     PrintError(e.what());
     return 1;
   }
-  outputs.Write(out, [&](std::ostream& os) { WriteG2o(graph, os); });
+  outputs.WriteGraph(out, graph);
   outputs.Write(list, [&](std::ostream& os) {
     os << "# wrong loop closures added to " << in << " (seed " << seed << "): FROM TO\n";
     for (const auto& [a, b] : added) os << a << " " << b << "\n";

@@ -44,7 +44,7 @@ void DeclareOptions(ArgParser& args, MapArgs& a) {
   args.Positional("LOG", &a.log_path, "CARMEN log (.log or .log.gz)");
   args.Option("output", &a.prefix, "PREFIX", "output prefix (required)");
   args.Alias("-o", "output");
-  args.Option("graph", &a.graph_path, "OUT.g2o", "also write the optimised pose graph as g2o");
+  args.Option("graph", &a.graph_path, "OUT.g2o", "also write the optimised pose graph (g2o; TORO if *.graph)");
   args.Option("resolution", &a.resolution, "M", "grid cell size in metres");
   args.Option("solver", &a.solver, "NAME", "back-end: ceres (Levenberg-Marquardt) or gn (Gauss-Newton)");
   args.Option("max-range", &a.max_range, "M", "readings at or above this mean no return (0: the log's largest)");
@@ -88,7 +88,7 @@ void DeclareFiles(const MapArgs& a, CommandOutputs& outputs) {
   outputs.Output(a.prefix + ".png");
   outputs.Output(a.prefix + "_trajectory.tum");
   outputs.Output(a.prefix + "_trajectory.svg");
-  outputs.Output(a.graph_path, ".g2o");
+  outputs.GraphOutput(a.graph_path);
   outputs.Output(a.reference_map, ".png");
   outputs.Check();
 }
@@ -116,7 +116,7 @@ frontend::Trajectory WriteOutputs(const MapArgs& a, const frontend::CarmenLog& l
                                       {"optimised keyframes", "#1f77b4", kf_poses}})});
   });
   if (!a.graph_path.empty())
-    outputs.Write(a.graph_path, [&](std::ostream& o) { WriteG2o(res.graph, o); });
+    outputs.WriteGraph(a.graph_path, res.graph);
   return traj;
 }
 

@@ -111,7 +111,7 @@ void DeclareOutlierOptions(ArgParser& args, OptimizeArgs& a) {
 
 void DeclareOptions(ArgParser& args, OptimizeArgs& a) {
   args.Positional("IN", &a.in, "a .g2o or TORO .graph file");
-  args.Option("output", &a.out, "OUT.g2o", "where to write the optimised graph (g2o)");
+  args.Option("output", &a.out, "OUT.g2o", "where to write the optimised graph (g2o; TORO if *.graph)");
   args.Alias("-o", "output");
   DeclareSolverOptions(args, a);
   args.Option("report", &a.report, "FILE.json",
@@ -297,7 +297,7 @@ std::string ReportJson(const OptimizeArgs& a, const OptimizePlan& p, const PoseG
 // cost a solve, and must leave -o as it was.
 void DeclareFiles(const OptimizeArgs& a, CommandOutputs& outputs) {
   outputs.Input(a.in);
-  outputs.Output(a.out, ".g2o");
+  outputs.GraphOutput(a.out);
   outputs.Output(a.report);
   outputs.Output(a.plot, ".svg");
   outputs.Check();
@@ -308,7 +308,8 @@ int RunOptimize(int argc, char** argv) {
   ArgParser args(
       "optimize IN -o OUT.g2o [--solver ceres|gn] [--robust huber:D|cauchy:D|dcs:PHI] [options]",
       "Optimises a g2o or TORO pose graph from the estimate in the file and writes the\n"
-      "result as g2o (to a temporary file, renamed when complete). Vertices marked\n"
+      "result as g2o, or as TORO when OUT ends in .graph (to a temporary file, renamed\n"
+      "when complete). Vertices marked\n"
       "FIX stay put; when none is and no prior anchors the graph, the lowest-id\n"
       "vertex is held. Progress goes to stderr, one line per iteration (chi2 is\n"
       "g2o's: twice Ceres's cost, robustified when --robust is set). Options marked\n"
@@ -328,6 +329,7 @@ int RunOptimize(int argc, char** argv) {
   const auto read_start = std::chrono::steady_clock::now();
   PoseGraph graph = ReadGraph(a.in, read_options);
   t.read_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
+  outputs.CheckGraphFits(graph);
   // Only copied when asked for: the "before" panel of the plot, the file's
   // own estimate whatever the initialisation.
   const PoseGraph before = a.plot.empty() ? PoseGraph(graph.dimension()) : graph;
@@ -353,7 +355,7 @@ int RunOptimize(int argc, char** argv) {
   }
   // A failed solve leaves -o as it was (the report still says why); the
   // rest go in place together or not at all.
-  if (result.usable) outputs.Write(a.out, [&](std::ostream& os) { WriteG2o(graph, os); });
+  if (result.usable) outputs.WriteGraph(a.out, graph);
   if (!a.report.empty()) {
     const std::string json = ReportJson(a, p, graph, result, t, rejected, covariances);
     outputs.Write(a.report, [&](std::ostream& os) { os << json; });

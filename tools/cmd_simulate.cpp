@@ -12,10 +12,11 @@
 namespace cairn::tools {
 namespace {
 
+// OUT_truth with OUT's own extension (any case), .g2o when it has none.
 std::string DefaultTruthPath(const std::string& out) {
-  const size_t dot = out.rfind(".g2o");
-  return (dot != std::string::npos && dot + 4 == out.size() ? out.substr(0, dot) : out) +
-         "_truth.g2o";
+  if (!GraphFormatOf(out)) return out + "_truth.g2o";
+  const size_t dot = out.rfind('.');
+  return out.substr(0, dot) + "_truth" + out.substr(dot);
 }
 
 int RunSimulate(int argc, char** argv) {
@@ -30,9 +31,9 @@ int RunSimulate(int argc, char** argv) {
       "create_sphere makes), with loop closures to the previous circle. The noisy\n"
       "graph's estimate chains its odometry; the truth file holds the same edges\n"
       "with the vertices at their true poses. The same seed gives the same files.");
-  args.Option("output", &out, "FILE", "the noisy graph (g2o)");
+  args.Option("output", &out, "FILE", "the noisy graph (g2o; TORO if *.graph)");
   args.Alias("-o", "output");
-  args.Option("truth", &truth_path, "FILE", "the ground truth (g2o) [default: OUT_truth.g2o]");
+  args.Option("truth", &truth_path, "FILE", "the ground truth [default: OUT_truth.g2o, or .graph]");
   args.Option("dim", &o.dimension, "2|3", "2D Manhattan walk or 3D sphere");
   args.Option("poses", &o.poses, "N", "number of poses");
   args.Option("translation-noise", &o.translation_noise, "M",
@@ -54,13 +55,14 @@ int RunSimulate(int argc, char** argv) {
   if (truth_path.empty()) truth_path = DefaultTruthPath(out);
   o.seed = static_cast<uint64_t>(seed);
   CommandOutputs outputs;
-  outputs.Output(out, ".g2o");
-  outputs.Output(truth_path, ".g2o");
+  outputs.GraphOutput(out);
+  outputs.GraphOutput(truth_path);
   outputs.Check();
 
   const Simulation sim = Simulate(o);
-  outputs.Write(out, [&](std::ostream& os) { WriteG2o(sim.noisy, os); });
-  outputs.Write(truth_path, [&](std::ostream& os) { WriteG2o(sim.truth, os); });
+  outputs.CheckGraphFits(sim.noisy);
+  outputs.WriteGraph(out, sim.noisy);
+  outputs.WriteGraph(truth_path, sim.truth);
   outputs.Commit();
   std::fprintf(stderr,
                "wrote %s (%zu vertices, %zu odometry edges, %zu loop closures of which %zu "

@@ -9,6 +9,8 @@
 #include <iostream>
 #include <string>
 
+#include <Eigen/Core>
+#include <ceres/version.h>
 #include <glog/logging.h>
 
 #include "tools/args.h"
@@ -29,11 +31,19 @@ void PrintUsage(std::ostream& os) {
             [](const Command& a, const Command& b) { return a.name < b.name; });
   os << "usage: cairn <command> [options]\n\n"
         "cairn: graph-SLAM back-end on Ceres, with a hand-written Gauss-Newton path\n"
-        "beside it. Reads and writes g2o pose graphs (and reads TORO).\n\ncommands:\n";
+        "beside it. Reads and writes pose graphs as g2o and as TORO (.graph).\n\ncommands:\n";
   for (const Command& c : commands)
     os << "  " << c.name << std::string(c.name.size() < 12 ? 12 - c.name.size() : 1, ' ')
        << c.summary << "\n";
-  os << "\n'cairn <command> --help' describes a command's options.\n" << GlobalOptionsHelp();
+  os << "\n'cairn <command> --help' describes a command's options; 'cairn --version' the build.\n"
+     << GlobalOptionsHelp();
+}
+
+// What a bug report needs: cairn's version and the libraries it was built with.
+void PrintVersion() {
+  std::cout << "cairn " << CAIRN_VERSION_STRING << " (Ceres " << CERES_VERSION_STRING << ", Eigen "
+            << EIGEN_WORLD_VERSION << '.' << EIGEN_MAJOR_VERSION << '.' << EIGEN_MINOR_VERSION
+            << ")\n";
 }
 
 // Ceres (and cairn) log through glog, which would otherwise put its lines,
@@ -88,6 +98,10 @@ int main(int argc, char** argv) {
       !std::strcmp(argv[1], "help")) {
     PrintUsage(argc < 2 ? std::cerr : std::cout);
     return argc < 2 ? 2 : 0;
+  }
+  if (!std::strcmp(argv[1], "--version") || !std::strcmp(argv[1], "version")) {
+    PrintVersion();
+    return 0;
   }
   for (const Command& c : Commands()) {
     if (c.name != argv[1]) continue;

@@ -35,6 +35,33 @@ void CommandOutputs::Output(const std::string& path, const char* extension) {
   if (extension) extensions_.emplace_back(path, extension);
 }
 
+void CommandOutputs::GraphOutput(const std::string& path) {
+  if (path.empty()) return;
+  AddOutput(path);
+  graphs_.push_back(path);
+}
+
+namespace {
+
+GraphFormat FormatFor(const std::string& path) {
+  return GraphFormatOf(path).value_or(GraphFormat::kG2o);
+}
+
+}  // namespace
+
+void CommandOutputs::CheckGraphFits(const PoseGraph& graph) const {
+  for (const std::string& path : graphs_) {
+    if (FormatFor(path) != GraphFormat::kToro) continue;
+    const std::string refusal = ToroRefusal(graph);
+    if (!refusal.empty()) throw std::runtime_error(path + ": " + refusal);
+  }
+}
+
+void CommandOutputs::WriteGraph(const std::string& path, const PoseGraph& graph) {
+  const GraphFormat format = FormatFor(path);
+  Write(path, [&](std::ostream& os) { cairn::WriteGraph(graph, format, os); });
+}
+
 void CommandOutputs::Check() {
   // Collisions first: an output that would overwrite an input is the worse news.
   OutputSet::Check();
@@ -42,6 +69,11 @@ void CommandOutputs::Check() {
     if (!EndsWithNoCase(path, extension) && !IsStream(path))
       throw std::runtime_error(path + ": an output extension cairn does not know here (it writes " +
                                extension.substr(1) + " there: name it *" + extension + ")");
+  for (const std::string& path : graphs_)
+    if (!GraphFormatOf(path) && !IsStream(path))
+      throw std::runtime_error(path +
+                               ": an output extension cairn does not know here (it writes a graph as "
+                               "g2o, *.g2o, or as TORO, *.graph)");
 }
 
 }  // namespace cairn::tools

@@ -534,6 +534,87 @@ void WriteG2o(const PoseGraph& graph, std::ostream& out) {
   kept.Rest();
 }
 
+std::string ToroRefusal(const PoseGraph& graph) {
+  if (graph.CountEdges(EdgeKind::kPrior) != 0)
+    return "TORO has no prior edges (" + std::to_string(graph.CountEdges(EdgeKind::kPrior)) +
+           " here): write it as g2o";
+  if (!graph.verbatim_lines().empty())
+    return "TORO has no place for the " + std::to_string(graph.verbatim_lines().size()) +
+           " lines kept verbatim: write it as g2o";
+  return {};
+}
+
+namespace {
+
+// The inverse of ToroInformation2D: (xx, xy, yy, tt, xt, yt).
+void WriteToroInformation2D(std::ostream& out, const Matrix6d& m) {
+  const double v[6] = {m(0, 0), m(0, 1), m(1, 1), m(2, 2), m(0, 2), m(1, 2)};
+  WriteNumbers(out, v, 6);
+}
+
+// TORO's roll-pitch-yaw weights from g2o's (the inverse of the reader's
+// Omega_q = J^T Omega_rpy J, J = diag(I, 2I)).
+Matrix6d ToroInformation3D(const Matrix6d& info_q) {
+  Vector6d j;
+  j << 1, 1, 1, 0.5, 0.5, 0.5;
+  return j.asDiagonal() * info_q * j.asDiagonal();
+}
+
+void WriteToroPose(std::ostream& out, const PoseGraph& graph, const PoseParams& p) {
+  if (graph.dimension() == 2) {
+    WriteNumbers(out, p.data(), 3);
+  } else {
+    const Vector6d v = ToSE3(p).ToEulerVector();
+    WriteNumbers(out, v.data(), 6);
+  }
+}
+
+}  // namespace
+
+void WriteToro(const PoseGraph& graph, std::ostream& out) {
+  const std::string refusal = ToroRefusal(graph);
+  if (!refusal.empty()) throw std::invalid_argument(refusal);
+  const bool planar = graph.dimension() == 2;
+  for (const Vertex& v : graph.vertices()) {
+    out << (planar ? "VERTEX2 " : "VERTEX3 ") << v.id;
+    WriteToroPose(out, graph, v.x);
+    out << '\n';
+  }
+  for (const Vertex& v : graph.vertices())
+    if (v.fixed) out << "FIX " << v.id << '\n';
+  for (const Edge& e : graph.edges()) {
+    out << (planar ? "EDGE2 " : "EDGE3 ") << e.from << ' ' << e.to;
+    WriteToroPose(out, graph, e.z);
+    if (planar) {
+      WriteToroInformation2D(out, e.information);
+    } else {
+      WriteUpperTriangle(out, ToroInformation3D(e.information), 6);
+    }
+    out << '\n';
+  }
+}
+
+std::optional<GraphFormat> GraphFormatOf(const std::string& path) {
+  auto ends_with = [&](const std::string& suffix) {
+    if (path.size() < suffix.size()) return false;
+    for (size_t k = 0; k < suffix.size(); ++k)
+      if (std::tolower(static_cast<unsigned char>(path[path.size() - suffix.size() + k])) != suffix[k])
+        return false;
+    return true;
+  };
+  if (ends_with(".g2o")) return GraphFormat::kG2o;
+  if (ends_with(".graph")) return GraphFormat::kToro;
+  return std::nullopt;
+}
+
+void WriteGraph(const PoseGraph& graph, GraphFormat format, std::ostream& out) {
+  if (format == GraphFormat::kToro) {
+    WriteToro(graph, out);
+  } else {
+    WriteG2o(graph, out);
+  }
+}
+
 void WriteG2o(const PoseGraph& graph, const std::string& path) {
   WriteFileAtomically(path, [&](std::ostream& out) { WriteG2o(graph, out); });
 }

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <iosfwd>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -34,5 +35,19 @@ PoseGraph ReadGraph(std::istream& in, const std::string& name, const ReadOptions
 // beside its destination and renamed when complete: never a half file.
 void WriteG2o(const PoseGraph& graph, const std::string& path);
 void WriteG2o(const PoseGraph& graph, std::ostream& out);
+
+// TORO's form (VERTEX2/EDGE2, VERTEX3/EDGE3 with roll-pitch-yaw and TORO's
+// order of the information entries), which ReadGraph reads back to the same
+// chi2; fixed vertices as FIX lines, as g2o writes them. TORO has no priors and
+// no place for lines kept verbatim: ToroRefusal says why a graph cannot be
+// written so, empty when it can, and WriteToro throws std::invalid_argument
+// with that reason.
+std::string ToroRefusal(const PoseGraph& graph);
+void WriteToro(const PoseGraph& graph, std::ostream& out);
+
+enum class GraphFormat { kG2o, kToro };
+// By the name's extension, in any case: .g2o, .graph (TORO); none otherwise.
+std::optional<GraphFormat> GraphFormatOf(const std::string& path);
+void WriteGraph(const PoseGraph& graph, GraphFormat format, std::ostream& out);
 
 }  // namespace cairn

@@ -1,5 +1,6 @@
 #include "cairn/solvers/solve_result.h"
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -51,10 +52,13 @@ SolverKind ParseSolverKind(const std::string& text) {
 const char* ToString(SolverKind kind) { return kind == SolverKind::kCeres ? "ceres" : "gn"; }
 
 RobustLoss ParseRobustLoss(const std::string& text) {
-  if (text.empty() || text == "none") return {};
+  if (text.empty()) return {};
   const size_t colon = text.find(':');
-  const std::string name = text.substr(0, colon);
+  // Kernel names as users type them: Huber, CAUCHY, DCS.
+  std::string name = text.substr(0, colon);
+  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   RobustLoss loss;
+  if (name == "none" && colon == std::string::npos) return loss;
   if (name == "huber") {
     loss.kind = RobustLoss::kHuber;
   } else if (name == "cauchy") {

@@ -10,6 +10,7 @@
 #include "cairn/graph/chi2.h"
 #include "cairn/graph/graph_io.h"
 #include "cairn/graph/output_files.h"
+#include "cairn/graph/simulate.h"
 #include "graph/parse_helpers.h"
 #include "test_util.h"
 
@@ -144,6 +145,103 @@ TEST(ReadToro, ThreeDimensional) {
   EXPECT_EQ(g.edges()[0].information(3, 3), 4);
   EXPECT_EQ(g.edges()[0].information(0, 0), 1);
   EXPECT_NEAR(Chi2(g), 0, 1e-20);
+}
+
+// What WriteToro wrote, read back.
+PoseGraph ToroRoundTrip(const PoseGraph& g) {
+  std::ostringstream out;
+  WriteToro(g, out);
+  return Parse(out.str());
+}
+
+// The same ids, fixed vertices and edges, and the same chi2 to the last digits
+// an Euler-angle detour leaves.
+void ExpectSameGraph(const PoseGraph& a, const PoseGraph& b, double chi2_tolerance) {
+  ASSERT_EQ(a.dimension(), b.dimension());
+  ASSERT_EQ(a.vertices().size(), b.vertices().size());
+  ASSERT_EQ(a.edges().size(), b.edges().size());
+  for (size_t k = 0; k < a.vertices().size(); ++k) {
+    EXPECT_EQ(a.vertices()[k].id, b.vertices()[k].id);
+    EXPECT_EQ(a.vertices()[k].fixed, b.vertices()[k].fixed);
+  }
+  for (size_t k = 0; k < a.edges().size(); ++k) {
+    EXPECT_EQ(a.edges()[k].from, b.edges()[k].from);
+    EXPECT_EQ(a.edges()[k].to, b.edges()[k].to);
+    EXPECT_EQ(a.edges()[k].kind, b.edges()[k].kind);
+  }
+  EXPECT_NEAR(Chi2(b), Chi2(a), chi2_tolerance * Chi2(a));
+}
+
+TEST(WriteToro, ReadsBackToTheSameGraphAndChi2) {
+  for (int dim : {2, 3}) {
+    SimulationOptions o;
+    o.dimension = dim;
+    o.poses = 300;
+    o.nodes_per_lap = 30;
+    o.seed = 11;
+    const PoseGraph g = Simulate(o).noisy;
+    ASSERT_GT(Chi2(g), 0);
+    const PoseGraph back = ToroRoundTrip(g);
+    ExpectSameGraph(g, back, 1e-9);
+    for (size_t k = 0; k < g.vertices().size(); ++k)
+      for (int i = 0; i < g.ParameterSize(); ++i)
+        EXPECT_NEAR(std::abs(back.vertices()[k].x[i]), std::abs(g.vertices()[k].x[i]), 1e-9);
+  }
+}
+
+TEST(WriteToro, WritesTorosTagsAndInformationOrder) {
+  const PoseGraph g = Parse(
+      "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0.5\nFIX 0\n"
+      "EDGE_SE2 0 1 1 0 0.5 11 1 2 22 3 33\n");
+  std::ostringstream out;
+  WriteToro(g, out);
+  EXPECT_EQ(out.str(),
+            "VERTEX2 0 0 0 0\nVERTEX2 1 1 0 0.5\nFIX 0\n"
+            "EDGE2 0 1 1 0 0.5 11 1 22 33 2 3\n");
+  EXPECT_TRUE(ToroRoundTrip(g).vertex(0).fixed);
+  // 3D: roll-pitch-yaw, and the weights of TORO's angle errors (a quarter of g2o's).
+  const PoseGraph g3 = ToroRoundTrip(
+      Parse("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n"
+            "VERTEX_SE3:QUAT 1 1 0 0 0 0 0.70710678118654757 0.70710678118654757\n"
+            "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 "
+            "100 0 0 0 0 0 100 0 0 0 0 100 0 0 0 400 0 0 400 0 400\n"));
+  EXPECT_DOUBLE_EQ(g3.edges()[0].information(3, 3), 400);
+  EXPECT_NEAR(ToSE3(g3.vertex(1).x).rotation().z(), std::sqrt(0.5), 1e-15);
+}
+
+TEST(WriteToro, RefusesWhatTorosFormatCannotHold) {
+  const PoseGraph with_prior = Parse(kSE2);
+  EXPECT_NE(ToroRefusal(with_prior).find("no prior edges"), std::string::npos);
+  std::ostringstream out;
+  EXPECT_THROW(WriteToro(with_prior, out), std::invalid_argument);
+  EXPECT_EQ(out.str(), "");
+  ReadOptions keep;
+  keep.keep_unknown = true;
+  const PoseGraph kept = Parse("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nROBOTLASER1 1 2\n"
+                               "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n", keep);
+  EXPECT_NE(ToroRefusal(kept).find("verbatim"), std::string::npos);
+  EXPECT_EQ(ToroRefusal(Parse("VERTEX2 0 0 0 0\n")), "");
+}
+
+TEST(GraphFormat, ByTheNamesExtensionInAnyCase) {
+  EXPECT_EQ(GraphFormatOf("a/b.g2o"), GraphFormat::kG2o);
+  EXPECT_EQ(GraphFormatOf("B.G2O"), GraphFormat::kG2o);
+  EXPECT_EQ(GraphFormatOf("x.graph"), GraphFormat::kToro);
+  EXPECT_EQ(GraphFormatOf("x.Graph"), GraphFormat::kToro);
+  EXPECT_FALSE(GraphFormatOf("x.txt"));
+  EXPECT_FALSE(GraphFormatOf("graph"));
+  EXPECT_FALSE(GraphFormatOf("x.g2o.bak"));
+}
+
+// The shared files through TORO and back: the same chi2 (the Euler-angle
+// detour costs last bits only).
+TEST(WriteToro, SharedFilesReadBackToTheSameChi2) {
+  for (const char* file : {"g2o/2d/intel.g2o", "g2o/3d/sphere2500.g2o", "g2o/3d/parking-garage.g2o"}) {
+    const std::string path = cairn::testing::DatasetPath(file);
+    CAIRN_REQUIRE_DATASET(path);
+    const PoseGraph g = ReadGraph(path);
+    ExpectSameGraph(g, ToroRoundTrip(g), 1e-6);
+  }
 }
 
 TEST(ReadG2o, EdgesOnlyGetVerticesFromSpanningTree) {

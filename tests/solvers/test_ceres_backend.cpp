@@ -254,8 +254,15 @@ TEST(CeresBackend, ParsesRobustLosses) {
   EXPECT_EQ(c.kind, RobustLoss::kCauchy);
   EXPECT_DOUBLE_EQ(c.delta, 0.25);
   EXPECT_EQ(ToString(c), "cauchy:0.25");
+  // Names in any case, as users type them.
+  EXPECT_EQ(ParseRobustLoss("None").kind, RobustLoss::kNone);
+  EXPECT_EQ(ParseRobustLoss("Huber:2").kind, RobustLoss::kHuber);
+  EXPECT_EQ(ParseRobustLoss("CAUCHY:1").kind, RobustLoss::kCauchy);
+  const RobustLoss d = ParseRobustLoss("DCS:3");
+  EXPECT_EQ(d.kind, RobustLoss::kDcs);
+  EXPECT_EQ(ToString(d), "dcs:3");
   for (const char* bad : {"huber", "huber:", "huber:-1", "huber:0", "huber:x", "tukey:1",
-                          "cauchy:1e999", "huber:1 "})
+                          "cauchy:1e999", "huber:1 ", "none:1", "NONE:1"})
     EXPECT_THROW(ParseRobustLoss(bad), std::invalid_argument) << bad;
 }
 

@@ -104,6 +104,51 @@ TEST(OptimizeTool, ReadsToroWritesG2o) {
   EXPECT_EQ(after.vertex(0).x, before.vertex(0).x);
 }
 
+TEST(OptimizeTool, WritesToroUnderAGraphName) {
+  Simulation sim = Simulated(3, 60);
+  const std::string in = cairn::testing::TempDir() + "/cairn_to_toro.g2o";
+  WriteG2o(sim.noisy, in);
+  int status = -1;
+  for (const char* out : {"/cairn_to_toro.out.graph", "/cairn_to_toro.out.g2o"}) {
+    const std::string log = testing::RunCommand(
+        Tool() + " optimize --quiet --solver gn '" + in + "' -o '" + testing::TempDir() + out + "' 2>&1",
+        &status);
+    ASSERT_EQ(status, 0) << log;
+  }
+  std::ifstream f(testing::TempDir() + "/cairn_to_toro.out.graph");
+  std::string first;
+  std::getline(f, first);
+  EXPECT_EQ(first.rfind("VERTEX3 0 ", 0), 0u) << first;
+  const double toro = Chi2(ReadGraph(testing::TempDir() + "/cairn_to_toro.out.graph"));
+  const double g2o = Chi2(ReadGraph(testing::TempDir() + "/cairn_to_toro.out.g2o"));
+  EXPECT_LT(g2o, 0.5 * Chi2(sim.noisy));
+  EXPECT_NEAR(toro, g2o, 1e-9 * g2o);
+}
+
+// TORO has no priors: refused once the input is read, before the solve.
+TEST(OptimizeTool, RefusesToroForAGraphWithPriorsBeforeTheSolve) {
+  const std::string in = cairn::testing::TempDir() + "/cairn_prior.g2o";
+  std::ofstream(in) << "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\n"
+                       "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_PRIOR_SE2 0 0 0 0 1 0 0 1 0 1\n";
+  const std::string out = in + ".graph", report = in + ".json";
+  int status = 0;
+  const std::string log = testing::RunCommand(
+      Tool() + " optimize '" + in + "' -o '" + out + "' --report '" + report + "' 2>&1", &status);
+  EXPECT_EQ(status, 1) << log;
+  EXPECT_EQ(log.rfind("cairn: " + out + ": TORO has no prior edges", 0), 0u) << log;
+  EXPECT_EQ(log.find("iter"), std::string::npos) << log;
+  EXPECT_FALSE(std::filesystem::exists(out));
+  EXPECT_FALSE(std::filesystem::exists(report));
+}
+
+TEST(Cli, VersionNamesCairnAndItsLibraries) {
+  int status = -1;
+  const std::string out = testing::RunCommand(Tool() + " --version 2>&1", &status);
+  EXPECT_EQ(status, 0);
+  EXPECT_EQ(out.rfind("cairn " CAIRN_TEST_VERSION " (Ceres ", 0), 0u) << out;
+  EXPECT_NE(out.find("Eigen "), std::string::npos) << out;
+}
+
 TEST(OptimizeTool, QuietPrintsNothing) {
   Simulation sim = Simulated(3, 60);
   const std::string in = cairn::testing::TempDir() + "/cairn_q_in.g2o";

@@ -143,7 +143,7 @@ TEST(OutputFaults, AnUnknownOutputExtensionIsRefusedBeforeWork) {
   Scene s("extension");
   for (const std::string args : {"optimize " + s.in + " -o " + (s / "x.txt"),
                                  "optimize " + s.in + " -o " + (s / "x.g2o") + " --plot " + (s / "p.png"),
-                                 "corrupt " + s.in + " -o " + (s / "x.graph") + " --outliers 1",
+                                 "corrupt " + s.in + " -o " + (s / "x.toro") + " --outliers 1",
                                  "simulate -o " + (s / "x.g2o") + " --truth " + (s / "t.txt")}) {
     int status = 0;
     const std::string log = Cairn(args, &status);

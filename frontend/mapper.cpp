@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <memory>
 #include <ostream>
 
@@ -79,7 +80,11 @@ class GraphBuilder {
  public:
   GraphBuilder(const CarmenLog& log, const MapperOptions& o, std::ostream* progress)
       : log_(log), o_(o), progress_(progress), graph_(res_.graph) {
-    res_.max_range = o.max_range > 0 ? o.max_range : log.max_reading;
+    // The option, else what the log declares, else its largest reading
+    // (by CARMEN's convention the no-return value).
+    res_.max_range = o.max_range > 0                ? o.max_range
+                     : log.declared_max_range > 0 ? log.declared_max_range
+                                                  : log.max_reading;
     match_max_ = std::min(o.max_match_range, res_.max_range - 1e-3);
     const size_t n = log.scans.size();
     res_.scan_poses.resize(n);
@@ -89,7 +94,10 @@ class GraphBuilder {
   }
 
   MapResult Run() {
-    for (size_t i = 0; i < log_.scans.size(); ++i) AddScan(i);
+    for (size_t i = 0; i < log_.scans.size(); ++i) {
+      AddScan(i);
+      ReportProgress(i + 1);
+    }
     if (res_.keyframes.size() > 1) Optimize(std::max(o_.optimize.max_iterations, 50));
     res_.stats.odometry_scale = OdometryScale();
     for (size_t i = 0; i < scan_kf_.size(); ++i)
@@ -98,6 +106,17 @@ class GraphBuilder {
   }
 
  private:
+  // Long logs take tens of seconds: a line now and then says it is moving.
+  void ReportProgress(size_t scans_done) {
+    if (!progress_ || Since(last_report_) < o_.progress_interval_s) return;
+    last_report_ = Clock::now();
+    const MapperStats& st = res_.stats;
+    *progress_ << "map: scan " << scans_done << " of " << log_.scans.size() << ", "
+               << res_.keyframes.size() << " keyframes, " << st.loop_accepted << " loop closures, "
+               << st.tracking_failures << " fell back to odometry, " << std::fixed
+               << std::setprecision(1) << Since(start_) << " s" << std::defaultfloat << "\n";
+  }
+
   SE2 KeyframePose(size_t k) const { return ToSE2(graph_.vertex(static_cast<int64_t>(k)).x); }
   double OdometryScale() const {
     return odo_den_ > 1.0 ? std::clamp(odo_num_ / odo_den_, 0.8, 1.25) : 1.0;
@@ -317,6 +336,7 @@ class GraphBuilder {
   const CarmenLog& log_;
   const MapperOptions& o_;
   std::ostream* progress_;
+  Clock::time_point start_ = Clock::now(), last_report_ = start_;
   MapResult res_;
   PoseGraph& graph_;
   double match_max_ = 0;

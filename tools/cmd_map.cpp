@@ -2,6 +2,7 @@
 // log to a pose graph, an occupancy grid and the trajectory.
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <iostream>
 #include <stdexcept>
@@ -47,12 +48,16 @@ void DeclareOptions(ArgParser& args, MapArgs& a) {
   args.Option("graph", &a.graph_path, "OUT.g2o", "also write the optimised pose graph as g2o");
   args.Option("resolution", &a.resolution, "M", "grid cell size in metres");
   args.Option("solver", &a.solver, "NAME", "back-end: ceres (Levenberg-Marquardt) or gn (Gauss-Newton)");
-  args.Option("max-range", &a.max_range, "M", "readings at or above this mean no return (0: the log's largest)");
+  args.Option("max-range", &a.max_range, "M",
+              "readings at or above this mean no return (0: the maximum the log declares, else "
+              "its largest reading)");
   args.Option("keyframe-distance", &a.kf_dist, "M", "metres travelled between keyframes");
   args.Option("keyframe-angle", &a.kf_angle_deg, "DEG", "degrees turned between keyframes");
   args.Option("reference-map", &a.reference_map, "FILE.png",
               "also draw the grid from the log's own poses, for comparison (never used by the front-end)");
-  args.Flag("quiet", &a.quiet, "do not report loop closures as they are accepted");
+  args.Flag("quiet", &a.quiet,
+            "no progress lines (where the walk through the log stands, every 5 s, and each loop "
+            "closure accepted)");
 }
 
 // The front-end's options from the arguments; false (the error printed)
@@ -88,9 +93,23 @@ void DeclareFiles(const MapArgs& a, CommandOutputs& outputs) {
   outputs.Output(a.prefix + ".png");
   outputs.Output(a.prefix + "_trajectory.tum");
   outputs.Output(a.prefix + "_trajectory.svg");
+  outputs.Output(a.prefix + "_keyframes.csv");
   outputs.Output(a.graph_path, ".g2o");
   outputs.Output(a.reference_map, ".png");
   outputs.Check();
+}
+
+// Keyframes by the index of their scan among the log's laser lines, which
+// pairs them with the log even where timestamps repeat (csail's 6 digits).
+void WriteKeyframes(const frontend::CarmenLog& log, const frontend::MapResult& res, std::ostream& o) {
+  o << "keyframe,scan,timestamp,x,y,theta\n";
+  char buf[96];
+  for (size_t k = 0; k < res.keyframes.size(); ++k) {
+    const size_t s = res.keyframes[k].scan;
+    const SE2 pose = ToSE2(res.graph.vertex(static_cast<int64_t>(k)).x);
+    std::snprintf(buf, sizeof buf, ",%.17g,%.17g,%.17g\n", pose.x(), pose.y(), pose.theta());
+    o << k << ',' << s << ',' << log.scans[s].timestamp_text << buf;
+  }
 }
 
 // Writes the declared outputs but the reference map, each to its temporary
@@ -111,6 +130,7 @@ frontend::Trajectory WriteOutputs(const MapArgs& a, const frontend::CarmenLog& l
     traj.Add(log.scans[s].timestamp, kf_poses.back(), static_cast<long>(s), log.scans[s].timestamp_text);
   }
   outputs.Write(prefix + "_trajectory.tum", [&](std::ostream& o) { frontend::WriteTum(traj, o); });
+  outputs.Write(prefix + "_keyframes.csv", [&](std::ostream& o) { WriteKeyframes(log, res, o); });
   outputs.Write(prefix + "_trajectory.svg", [&](std::ostream& o) {
     WriteSvgPlot(o, {TrajectoryPanel({{"dead reckoning", "#d62728", res.dead_reckoning},
                                       {"optimised keyframes", "#1f77b4", kf_poses}})});
@@ -153,7 +173,9 @@ int RunMap(int argc, char** argv) {
                  "closures are verified by scan matching and added with a robust loss, and the\n"
                  "graph is optimised as it grows. Writes PREFIX.pgm + PREFIX.yaml (ROS map_server),\n"
                  "PREFIX.png, PREFIX_trajectory.svg (dead reckoning and result) and\n"
-                 "PREFIX_trajectory.tum (keyframes, the log's scan timestamps). When the log holds\n"
+                 "PREFIX_trajectory.tum (keyframes, the log's scan timestamps), PREFIX_keyframes.csv\n"
+                 "(keyframe,scan,timestamp,x,y,theta; scan: the 0-based index of the keyframe's\n"
+                 "laser line among the log's laser lines). When the log holds\n"
                  "reference poses, prints the trajectory errors of dead reckoning and of the result.\n"
                  "Stage timings go to stderr.");
   DeclareOptions(args, a);

@@ -209,6 +209,73 @@ TEST(CarmenLog, ReadsRobotLaserWithItsOwnGeometryAndOffset) {
   EXPECT_NEAR(s.laser_offset.y(), offset.y(), 1e-12);
   EXPECT_NEAR(s.laser_offset.theta(), 0, 1e-12);
   EXPECT_DOUBLE_EQ(s.timestamp, 7.25);
+  EXPECT_DOUBLE_EQ(s.max_range, 50);
+  EXPECT_DOUBLE_EQ(log.declared_max_range, 50);
+}
+
+// A FLASER line with n beams of 2.5 m but the first (1 m) and last (3 m).
+std::string Flaser(int n) {
+  std::string line = "FLASER " + std::to_string(n) + " 1";
+  for (int i = 1; i + 1 < n; ++i) line += " 2.5";
+  return line + " 3 0 0 0 0 0 0 1.5 h 1.5\n";
+}
+
+TEST(CarmenLog, FlaserGeometryFromParamLines) {
+  struct Case {
+    std::string params;
+    int beams;
+    double angle_min, increment;
+  };
+  const double deg = M_PI / 180;
+  for (const Case& c : std::vector<Case>{
+           {"", 181, -90 * deg, 1 * deg},  // no PARAM: 180 degrees
+           {"", 180, -90 * deg, 1 * deg},
+           {"PARAM laser_front_laser_fov 90\nPARAM laser_front_laser_resolution 1\n", 91, -45 * deg, deg},
+           {"PARAM laser_front_laser_fov 270\nPARAM laser_front_laser_resolution 0.25\n", 1081,
+            -135 * deg, 0.25 * deg},
+           // Radians in older logs; the span the beams cover, not the rounded value.
+           {"PARAM laser_front_laser_fov 3.14159\nPARAM laser_front_laser_resolution 0.5\n", 361,
+            -90 * deg, 0.5 * deg},
+           // A resolution the beam count does not fit: the field of view split by the count.
+           {"PARAM laser_front_laser_fov 100\nPARAM laser_front_laser_resolution 1\n", 51, -50 * deg,
+            2 * deg},
+           {"PARAM laser_front_laser_resolution 0.5\n", 360, -90 * deg, 0.5 * deg}}) {
+    const CarmenLog log = ReadCarmenLog(WriteTemp("cairn_param.log", c.params + Flaser(c.beams)));
+    ASSERT_EQ(log.scans.size(), 1u);
+    EXPECT_NEAR(log.scans[0].angle_min, c.angle_min, 1e-12) << c.params << c.beams;
+    EXPECT_NEAR(log.scans[0].angle_increment, c.increment, 1e-12) << c.params << c.beams;
+    EXPECT_EQ(log.scans[0].max_range, 0);
+  }
+}
+
+TEST(CarmenLog, FlippedLaserAndDeclaredMaximumRange) {
+  const CarmenLog log = ReadCarmenLog(WriteTemp(
+      "cairn_flipped.log", "PARAM laser_front_laser_flipped 1 h 0\nPARAM robot_front_laser_max 40 h 0\n" +
+                               Flaser(181) + "PARAM laser_front_laser_flipped 0 h 0\n" + Flaser(181)));
+  ASSERT_EQ(log.scans.size(), 2u);
+  EXPECT_EQ(log.scans[0].ranges.front(), 3.0f);
+  EXPECT_EQ(log.scans[0].ranges.back(), 1.0f);
+  EXPECT_EQ(log.scans[1].ranges.front(), 1.0f);
+  EXPECT_DOUBLE_EQ(log.scans[1].max_range, 40);
+  EXPECT_DOUBLE_EQ(log.declared_max_range, 40);
+  EXPECT_DOUBLE_EQ(log.max_reading, 3);
+}
+
+TEST(CarmenLog, BadLaserParameterNamesItsLine) {
+  for (const char* bad : {"PARAM laser_front_laser_fov wide\n", "PARAM laser_front_laser_fov -10\n",
+                          "PARAM laser_front_laser_resolution 0\n", "PARAM robot_front_laser_max nan\n"}) {
+    const std::string path = WriteTemp("cairn_badparam.log", std::string("# log\n") + bad + Flaser(181));
+    try {
+      ReadCarmenLog(path);
+      ADD_FAILURE() << "no error for " << bad;
+    } catch (const ParseError& e) {
+      EXPECT_EQ(e.line(), 2u) << e.what();
+    }
+  }
+  // Parameters the front-end does not use say what they like.
+  EXPECT_EQ(ReadCarmenLog(WriteTemp("cairn_okparam.log", "PARAM robot_use_laser on h 0\n" + Flaser(181)))
+                .scans.size(),
+            1u);
 }
 
 TEST(CarmenLog, MalformedLineNamesFileAndLine) {
@@ -309,6 +376,82 @@ PoseGraph SquareLoop() {
   lc.z = ToParams(SE2(3, 3, 1));  // wrong
   g.AddEdge(lc);
   return g;
+}
+
+// A drive through the room, as a corrected CARMEN log: ODOM lines at the
+// true poses (the chain restarts at each scan's pose), FLASER lines with
+// stamps repeated in pairs, as a log with too few digits has them.
+std::string RoomDriveLog(int scans, std::vector<SE2>* truth) {
+  std::ostringstream log;
+  log.precision(17);
+  for (int i = 0; i < scans; ++i) {
+    const SE2 pose(1.5 + 0.12 * i, 1.2 + 0.05 * i, 0.2 + 0.01 * i);
+    truth->push_back(pose);
+    const std::string stamp = std::to_string(100 + i / 2) + ".5";
+    log << "ODOM " << pose.x() << ' ' << pose.y() << ' ' << pose.theta() << " 0 0 0 " << stamp << " h "
+        << stamp << "\n";
+    const LaserScan s = Render(Room(), pose);
+    log << "FLASER " << s.ranges.size();
+    for (float r : s.ranges) log << ' ' << r;
+    for (int k = 0; k < 2; ++k) log << ' ' << pose.x() << ' ' << pose.y() << ' ' << pose.theta();
+    log << ' ' << stamp << " h " << stamp << "\n";
+  }
+  return log.str();
+}
+
+TEST(Mapper, ReportsProgressAsItWalksTheLog) {
+  std::vector<SE2> truth;
+  const CarmenLog log = ReadCarmenLog(WriteTemp("cairn_progress.log", RoomDriveLog(12, &truth)));
+  MapperOptions o;
+  o.progress_interval_s = 0;  // a line after every scan
+  std::ostringstream progress;
+  BuildPoseGraph(log, o, &progress);
+  for (int i = 1; i <= 12; ++i)
+    EXPECT_NE(progress.str().find("map: scan " + std::to_string(i) + " of 12, "), std::string::npos)
+        << progress.str();
+  EXPECT_NE(progress.str().find(" keyframes, 0 loop closures, 0 fell back to odometry, "),
+            std::string::npos)
+      << progress.str();
+  o.progress_interval_s = 1e9;
+  std::ostringstream none;
+  BuildPoseGraph(log, o, &none);
+  EXPECT_EQ(none.str(), "");
+}
+
+TEST(MapTool, WritesKeyframesByScanIndex) {
+  std::vector<SE2> truth;
+  const auto dir = std::filesystem::path(cairn::testing::TempDir()) / "cairn_map_kf";
+  std::filesystem::create_directories(dir);
+  const std::string log = WriteTemp("cairn_map_kf/drive.log", RoomDriveLog(30, &truth));
+  const std::string prefix = (dir / "out").string();
+  const std::string cmd = std::string(CAIRN_TOOL) + " map " + log + " -o " + prefix + " --quiet 2> " +
+                          prefix + ".err";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << ReadAll(prefix + ".err");
+  std::istringstream csv(ReadAll(prefix + "_keyframes.csv"));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "keyframe,scan,timestamp,x,y,theta");
+  long expected_keyframe = 0, last_scan = -1;
+  while (std::getline(csv, line)) {
+    long keyframe = 0, scan = 0;
+    char stamp[32];
+    double x = 0, y = 0, theta = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%ld,%ld,%31[^,],%lf,%lf,%lf", &keyframe, &scan, stamp, &x, &y,
+                          &theta),
+              6)
+        << line;
+    EXPECT_EQ(keyframe, expected_keyframe++);
+    EXPECT_GT(scan, last_scan);
+    ASSERT_LT(scan, 30);
+    last_scan = scan;
+    EXPECT_EQ(std::string(stamp), std::to_string(100 + scan / 2) + ".5");
+    // In the first keyframe's frame, which is the first scan's.
+    const SE2 rel = truth[0].Between(truth[static_cast<size_t>(scan)]);
+    EXPECT_NEAR(x, rel.x(), 0.03) << line;
+    EXPECT_NEAR(y, rel.y(), 0.03) << line;
+    EXPECT_NEAR(theta, rel.theta(), 0.01) << line;
+  }
+  EXPECT_GE(expected_keyframe, 5);
 }
 
 TEST(Optimize, BothSolversCloseTheLoopDespiteAFalseClosure) {

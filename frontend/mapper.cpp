@@ -357,6 +357,14 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
   return GraphBuilder(log, o, progress).Run();
 }
 
+void LayInLogFrame(const CarmenLog& log, MapResult* result) {
+  if (log.scans.empty()) return;
+  const SE2 first = log.scans.front().reference;
+  for (Vertex& v : result->graph.vertices()) v.x = ToParams(first * ToSE2(v.x));
+  for (SE2& p : result->scan_poses) p = first * p;
+  for (SE2& p : result->dead_reckoning) p = first * p;
+}
+
 OccupancyGrid BuildOccupancyGrid(const CarmenLog& log, const std::vector<SE2>& poses,
                                  double max_range, const GridOptions& options) {
   // Beam ends first, for the bounds.
@@ -365,18 +373,28 @@ OccupancyGrid BuildOccupancyGrid(const CarmenLog& log, const std::vector<SE2>& p
     bool hit;
   };
   std::vector<Beam> beams;
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> walls;
   Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
   for (size_t i = 0; i < log.scans.size() && i < poses.size(); ++i) {
     const LaserScan& s = log.scans[i];
     const SE2 sensor = poses[i] * s.laser_offset;
+    bool previous_hit = false;  // the scan's last beam, and where it ended
+    Eigen::Vector2d previous_end;
     for (size_t b = 0; b < s.ranges.size(); ++b) {
       double r = s.ranges[b];
-      if (!(r > 0.01)) continue;
       const bool hit = r < max_range - 1e-3;
+      if (!(r > 0.01) || (!hit && !(options.max_clear_range > 0))) {
+        previous_hit = false;
+        continue;
+      }
       if (!hit) r = std::min(r, options.max_clear_range);
       const double a = s.angle_min + s.angle_increment * b;
       const Eigen::Vector2d end = sensor * Eigen::Vector2d(r * std::cos(a), r * std::sin(a));
+      if (hit && previous_hit && (end - previous_end).norm() <= options.max_wall_gap)
+        walls.emplace_back(previous_end, end);
       beams.push_back({sensor.translation(), end, hit});
+      previous_hit = hit;
+      previous_end = end;
       lo = lo.cwiseMin(end).cwiseMin(sensor.translation());
       hi = hi.cwiseMax(end).cwiseMax(sensor.translation());
     }
@@ -385,6 +403,7 @@ OccupancyGrid BuildOccupancyGrid(const CarmenLog& log, const std::vector<SE2>& p
   const Eigen::Vector2d margin(1.0, 1.0);
   OccupancyGrid grid(lo - margin, hi + margin, options);
   for (const Beam& b : beams) grid.AddBeam(b.from, b.to, b.hit);
+  for (const auto& [a, b] : walls) grid.AddWall(a, b);
   return grid;
 }
 

@@ -80,6 +80,12 @@ struct MapResult {
 MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& options,
                          std::ostream* progress = nullptr);
 
+// BuildPoseGraph lays its result in the first scan's frame (that scan at the
+// origin, heading along +x); this moves it into the log's own frame (the
+// first scan at the pose its laser line carries), so that it overlays what
+// else the log's frame describes. Vertices, scan poses and dead reckoning.
+void LayInLogFrame(const CarmenLog& log, MapResult* result);
+
 // The grid from every scan at its pose (beams at max_range only clear).
 OccupancyGrid BuildOccupancyGrid(const CarmenLog& log, const std::vector<SE2>& poses,
                                  double max_range, const GridOptions& options);

@@ -36,8 +36,9 @@ void PrintErrors(const char* what, const frontend::TrajectoryErrors& e) {
 }
 
 struct MapArgs {
-  std::string log_path, prefix, graph_path, reference_map, solver = "ceres";
+  std::string log_path, prefix, graph_path, reference_map, solver = "ceres", frame = "first-scan";
   double resolution = 0.05, max_range = 0, kf_dist = 0.5, kf_angle_deg = 25;
+  double no_return_clear = frontend::GridOptions{}.max_clear_range;
   bool quiet = false;
 };
 
@@ -51,6 +52,11 @@ void DeclareOptions(ArgParser& args, MapArgs& a) {
   args.Option("max-range", &a.max_range, "M",
               "readings at or above this mean no return (0: the maximum the log declares, else "
               "its largest reading)");
+  args.Option("no-return-clear", &a.no_return_clear, "M",
+              "how far a no-return beam clears free space (0: not at all)");
+  args.Option("frame", &a.frame, "first-scan|log",
+              "lay the map, trajectory, keyframes and graph in the first scan's frame (that scan "
+              "at the origin) or in the log's own (the first scan at the pose its line carries)");
   args.Option("keyframe-distance", &a.kf_dist, "M", "metres travelled between keyframes");
   args.Option("keyframe-angle", &a.kf_angle_deg, "DEG", "degrees turned between keyframes");
   args.Option("reference-map", &a.reference_map, "FILE.png",
@@ -73,8 +79,14 @@ bool MakeMapperOptions(const MapArgs& a, frontend::MapperOptions* mo) {
     PrintError(e.what());
     return false;
   }
-  if (!(a.resolution > 0) || !(a.kf_dist > 0) || !(a.kf_angle_deg > 0) || a.max_range < 0) {
-    PrintError("resolution, keyframe distance and angle must be positive");
+  if (!(a.resolution > 0) || !(a.kf_dist > 0) || !(a.kf_angle_deg > 0) || a.max_range < 0 ||
+      !(a.no_return_clear >= 0)) {
+    PrintError("resolution, keyframe distance and angle must be positive, --max-range and "
+               "--no-return-clear not negative");
+    return false;
+  }
+  if (a.frame != "first-scan" && a.frame != "log") {
+    PrintError("--frame must be first-scan or log, not '" + a.frame + "'");
     return false;
   }
   mo->keyframe_distance = a.kf_dist;
@@ -192,12 +204,14 @@ int RunMap(int argc, char** argv) {
   if (log.scans.size() < 2) throw std::runtime_error(a.log_path + ": fewer than two laser scans");
 
   t = Clock::now();
-  const frontend::MapResult res = frontend::BuildPoseGraph(log, mo, a.quiet ? nullptr : &std::cerr);
+  frontend::MapResult res = frontend::BuildPoseGraph(log, mo, a.quiet ? nullptr : &std::cerr);
+  if (a.frame == "log") frontend::LayInLogFrame(log, &res);
   const double t_graph = Since(t);
 
   t = Clock::now();
   frontend::GridOptions go;
   go.resolution = a.resolution;
+  go.max_clear_range = a.no_return_clear;
   const frontend::OccupancyGrid grid = frontend::BuildOccupancyGrid(log, res.scan_poses, res.max_range, go);
   const double t_grid = Since(t);
   if (!a.reference_map.empty()) {

@@ -149,6 +149,73 @@ TEST(OccupancyGrid, SingleBeamClearsThenMarksTheHit) {
   EXPECT_EQ(img.pixels[0], 205);                                                        // unknown
 }
 
+TEST(OccupancyGrid, AWallJoinsTwoHitsWithoutTheirEnds) {
+  GridOptions go;
+  go.resolution = 0.1;
+  OccupancyGrid grid({0, 0}, {2, 2}, go);
+  grid.AddWall({0.05, 0.05}, {0.55, 0.05});
+  for (int x = 1; x <= 4; ++x) EXPECT_FLOAT_EQ(grid.LogOdds(x, 0), static_cast<float>(go.log_odds_hit)) << x;
+  EXPECT_FALSE(grid.Known(0, 0));
+  EXPECT_FALSE(grid.Known(5, 0));
+  grid.AddWall({1.05, 1.05}, {1.06, 1.07});  // one cell: nothing between
+  EXPECT_FALSE(grid.Known(10, 10));
+}
+
+// Cells of the grid's trinary image along a segment parallel to y that are
+// not occupied (0), nor their neighbours either side across it.
+int GapsAlong(const OccupancyGrid& grid, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  const Image img = grid.ToTrinary();
+  int gaps = 0;
+  const int steps = static_cast<int>((b - a).norm() / grid.resolution());
+  for (int k = 0; k <= steps; ++k) {
+    int cx, cy;
+    grid.Cell(a + (b - a) * (static_cast<double>(k) / steps), &cx, &cy);
+    bool occupied = false;
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int x = cx + dx;
+      if (x >= 0 && x < grid.width())
+        occupied |= img.pixels[static_cast<size_t>(grid.height() - 1 - cy) * grid.width() + x] == 0;
+    }
+    gaps += !occupied;
+  }
+  return gaps;
+}
+
+// One scan of 1-degree beams at a wall 8 m off: 14 cm between hits, three
+// 5 cm cells. The grid joins them; a doorway-sized gap it leaves.
+TEST(OccupancyGrid, BeamsSpreadAtRangeLeaveNoGapsInAWall) {
+  CarmenLog log;
+  std::vector<Segment> walls = {{{8.01, -3}, {8.01, 3}}, {{8.01, 3.8}, {8.01, 6}}};
+  LaserScan s = Render(walls, SE2(), 181, 30);
+  log.scans = {s};
+  GridOptions go;
+  go.resolution = 0.05;
+  const OccupancyGrid joined = BuildOccupancyGrid(log, {SE2()}, 30, go);
+  EXPECT_EQ(GapsAlong(joined, {8.01, -2.9}, {8.01, 2.9}), 0);
+  EXPECT_GT(GapsAlong(joined, {8.01, 3.1}, {8.01, 3.7}), 8);  // the 0.8 m doorway stays open
+  go.max_wall_gap = 0;
+  const OccupancyGrid beams_only = BuildOccupancyGrid(log, {SE2()}, 30, go);
+  EXPECT_GT(GapsAlong(beams_only, {8.01, -2.9}, {8.01, 2.9}), 40);
+}
+
+TEST(OccupancyGrid, NoReturnBeamsClearAShortWayOrNotAtAll) {
+  CarmenLog log;
+  LaserScan s = Render({}, SE2(), 181, 30);  // nothing in sight: every beam at maximum range
+  log.scans = {s};
+  GridOptions go;
+  go.resolution = 0.1;
+  const OccupancyGrid grid = BuildOccupancyGrid(log, {SE2()}, 30, go);
+  int cx, cy;
+  ASSERT_TRUE(grid.Cell({go.max_clear_range - 0.25, 0}, &cx, &cy));
+  EXPECT_TRUE(grid.Known(cx, cy));
+  EXPECT_LT(grid.LogOdds(cx, cy), 0);
+  EXPECT_FALSE(grid.Cell({go.max_clear_range + 1.5, 0}, &cx, &cy) && grid.Known(cx, cy));
+  go.max_clear_range = 0;
+  const OccupancyGrid untouched = BuildOccupancyGrid(log, {SE2()}, 30, go);
+  for (int y = 0; y < untouched.height(); ++y)
+    for (int x = 0; x < untouched.width(); ++x) EXPECT_FALSE(untouched.Known(x, y));
+}
+
 TEST(ImageIo, PngHasSignatureChunksAndCrc) {
   Image img{3, 2, 1, {0, 128, 255, 10, 20, 30}};
   std::ostringstream os;
@@ -452,6 +519,18 @@ TEST(MapTool, WritesKeyframesByScanIndex) {
     EXPECT_NEAR(theta, rel.theta(), 0.01) << line;
   }
   EXPECT_GE(expected_keyframe, 5);
+  // In the log's frame the first keyframe is where the log puts the first scan.
+  const std::string in_log = std::string(CAIRN_TOOL) + " map " + log + " -o " + prefix +
+                             "_log --frame log --quiet 2> " + prefix + ".err";
+  ASSERT_EQ(std::system(in_log.c_str()), 0) << ReadAll(prefix + ".err");
+  std::istringstream csv_log(ReadAll(prefix + "_log_keyframes.csv"));
+  std::getline(csv_log, line);
+  std::getline(csv_log, line);
+  double x = 0, y = 0, theta = 0;
+  ASSERT_EQ(std::sscanf(line.c_str(), "0,0,%*[^,],%lf,%lf,%lf", &x, &y, &theta), 3) << line;
+  EXPECT_DOUBLE_EQ(x, truth[0].x());
+  EXPECT_DOUBLE_EQ(y, truth[0].y());
+  EXPECT_NEAR(theta, truth[0].theta(), 1e-15);
 }
 
 TEST(Optimize, BothSolversCloseTheLoopDespiteAFalseClosure) {

@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -121,22 +122,63 @@ class LineReader {
   TextInput input_;
 };
 
+// CARMEN writes the field of view in degrees (180), older logs in radians
+// (csail's 3.14159): no laser spans less than 2 pi degrees, so a value up to
+// 2 pi is radians.
+double FovRadians(double value) { return value <= 2 * M_PI + 1e-9 ? value : value * M_PI / 180; }
+
+// The beams' bearings of an n-beam FLASER scan. The declared resolution
+// when n beams at it span the field of view (as n - 1 or n steps); else the
+// field of view split by the count, an odd count closed at both ends
+// (181 beams over 180 degrees), an even one open (180 over 180).
+void FlaserGeometry(const FrontLaserParams& params, int n, LaserScan* scan) {
+  const double fov = std::isnan(params.fov_deg) ? M_PI : FovRadians(params.fov_deg);
+  const double res = params.resolution_deg * M_PI / 180;
+  double steps = (n % 2) == 1 ? n - 1 : n;
+  double increment = fov / steps;
+  for (const int s : {n - 1, n})
+    if (!std::isnan(res) && std::abs(s * res - fov) < 0.5 * res) {
+      steps = s;
+      increment = res;
+      break;
+    }
+  // Centred on the span the beams cover, which a rounded field of view
+  // (3.14159) only approximates.
+  scan->angle_increment = increment;
+  scan->angle_min = -steps * increment / 2;
+  if (!std::isnan(params.max_range)) scan->max_range = params.max_range;
+}
+
 // FLASER n r1 .. rn x y theta odom_x odom_y odom_theta timestamp ...: the
 // ranges and the corrected pose; returns the timestamp's field.
-size_t ParseFlaser(LineParser& p, LaserScan* scan) {
+size_t ParseFlaser(LineParser& p, const FrontLaserParams& params, LaserScan* scan) {
   const int n = p.Count(1, "number of readings", 100000);
   if (n < 2) p.Fail("a scan needs at least 2 readings");
   p.Need(2 + n + 9);
   scan->ranges.resize(n);
   for (int i = 0; i < n; ++i) scan->ranges[i] = static_cast<float>(p.Double(2 + i, "range"));
+  if (params.flipped) std::reverse(scan->ranges.begin(), scan->ranges.end());
+  FlaserGeometry(params, n, scan);
   size_t k = 2 + n;
-  // 180/181 beams over 180 degrees, 360/361 over 180 degrees too.
-  const double fov = M_PI;
-  const bool closed = (n % 2) == 1;
-  scan->angle_increment = fov / (closed ? n - 1 : n);
-  scan->angle_min = -M_PI / 2;
   scan->reference = p.Pose(k);
   return k + 6;
+}
+
+// PARAM NAME VALUE ...: the front laser's geometry; other parameters say
+// nothing the front-end uses. A geometry value that is not a sane number is
+// this line's error.
+void ParseParam(const LineParser& p, FrontLaserParams* params) {
+  p.Need(3);
+  const std::string& name = p.Text(1);
+  auto positive = [&](double max) {
+    const double v = p.Double(2, name.c_str());
+    if (!(v > 0) || v > max) p.Fail("bad " + name + " '" + p.Text(2) + "'");
+    return v;
+  };
+  if (name == "laser_front_laser_fov") params->fov_deg = positive(360);
+  if (name == "laser_front_laser_resolution") params->resolution_deg = positive(360);
+  if (name == "robot_front_laser_max") params->max_range = positive(kMaxAbsCoordinate);
+  if (name == "laser_front_laser_flipped") params->flipped = p.Double(2, name.c_str()) != 0;
 }
 
 // ROBOTLASER1 with its own angles, remissions, and the laser's pose beside
@@ -146,7 +188,8 @@ size_t ParseRobotLaser(LineParser& p, LaserScan* scan) {
   const double start = p.Double(2, "start angle");
   p.Double(3, "field of view");
   const double res = p.Double(4, "angular resolution");
-  p.Double(5, "maximum range");
+  const double max_range = p.Double(5, "maximum range");
+  if (max_range > 0) scan->max_range = max_range;
   const int n = p.Count(8, "number of readings", 100000);
   if (n < 2) p.Fail("a scan needs at least 2 readings");
   p.Need(9 + n + 1);
@@ -207,7 +250,7 @@ CarmenLog ReadCarmenLog(const std::string& path, size_t max_line_bytes) {
     if (tag != "FLASER" && tag != "ROBOTLASER1" && tag != "ODOM" && tag != "PARAM") continue;
     LineParser p(path, line_no, Tokens(text));
     if (tag == "PARAM") {
-      p.Need(3);
+      ParseParam(p, &log.front_laser);
       continue;
     }
     if (tag == "ODOM") {
@@ -219,7 +262,8 @@ CarmenLog ReadCarmenLog(const std::string& path, size_t max_line_bytes) {
     }
     LaserScan scan;
     scan.line = line_no;
-    const size_t k = tag == "FLASER" ? ParseFlaser(p, &scan) : ParseRobotLaser(p, &scan);
+    const size_t k =
+        tag == "FLASER" ? ParseFlaser(p, log.front_laser, &scan) : ParseRobotLaser(p, &scan);
     p.Need(k + 1);
     scan.timestamp = p.Double(k, "timestamp");
     scan.timestamp_text = p.Text(k);
@@ -227,6 +271,7 @@ CarmenLog ReadCarmenLog(const std::string& path, size_t max_line_bytes) {
       if (r < 0) p.Fail("negative range");
       log.max_reading = std::max(log.max_reading, static_cast<double>(r));
     }
+    log.declared_max_range = std::max(log.declared_max_range, scan.max_range);
     odometry.Scan(&scan);
     log.scans.push_back(std::move(scan));
   }

@@ -4,6 +4,7 @@
 // evaluation alone.
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -28,7 +29,20 @@ struct LaserScan {
   // corrected logs).
   SE2 reference;
   SE2 laser_offset;  // laser in the robot frame (ROBOTLASER1 only)
+  // The laser's maximum range as the log declares it (ROBOTLASER1's field,
+  // PARAM robot_front_laser_max for FLASER); 0 when it does not say.
+  double max_range = 0;
   size_t line = 0;
+};
+
+// The front laser as the log's PARAM lines describe it (CARMEN's laser and
+// robot modules), applied to the FLASER lines that follow them; NaN (or
+// false) where the log says nothing. Without a field of view, 180 degrees.
+struct FrontLaserParams {
+  double fov_deg = std::nan("");         // laser_front_laser_fov (up to 2 pi: radians)
+  double resolution_deg = std::nan("");  // laser_front_laser_resolution
+  double max_range = std::nan("");       // robot_front_laser_max, metres
+  bool flipped = false;                  // laser_front_laser_flipped: beams right to left
 };
 
 struct CarmenLog {
@@ -36,9 +50,16 @@ struct CarmenLog {
   std::vector<LaserScan> scans;
   // The largest reading in the log: by convention it means "no return".
   double max_reading = 0;
+  // The largest maximum range the log declares (LaserScan::max_range), 0
+  // when it declares none.
+  double declared_max_range = 0;
+  FrontLaserParams front_laser;  // as the last PARAM lines left it
 };
 
 // Reads FLASER, ROBOTLASER1, ODOM and PARAM lines; other lines are ignored.
+// A FLASER line's beams span the field of view the PARAM lines give (its
+// resolution when the beam count fits it), centred ahead; ROBOTLASER1 lines
+// carry their own start angle, resolution and maximum range.
 // Throws cairn::ParseError ("FILE:LINE: message") on a malformed line and
 // std::runtime_error when the file cannot be read. Poses must be finite,
 // within kMaxAbsCoordinate and kMaxAbsAngle; a line longer than

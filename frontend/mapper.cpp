@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <memory>
 #include <ostream>
 
@@ -79,7 +80,11 @@ class GraphBuilder {
  public:
   GraphBuilder(const CarmenLog& log, const MapperOptions& o, std::ostream* progress)
       : log_(log), o_(o), progress_(progress), graph_(res_.graph) {
-    res_.max_range = o.max_range > 0 ? o.max_range : log.max_reading;
+    // The option, else what the log declares, else its largest reading
+    // (by CARMEN's convention the no-return value).
+    res_.max_range = o.max_range > 0                ? o.max_range
+                     : log.declared_max_range > 0 ? log.declared_max_range
+                                                  : log.max_reading;
     match_max_ = std::min(o.max_match_range, res_.max_range - 1e-3);
     const size_t n = log.scans.size();
     res_.scan_poses.resize(n);
@@ -89,7 +94,10 @@ class GraphBuilder {
   }
 
   MapResult Run() {
-    for (size_t i = 0; i < log_.scans.size(); ++i) AddScan(i);
+    for (size_t i = 0; i < log_.scans.size(); ++i) {
+      AddScan(i);
+      ReportProgress(i + 1);
+    }
     if (res_.keyframes.size() > 1) Optimize(std::max(o_.optimize.max_iterations, 50));
     res_.stats.odometry_scale = OdometryScale();
     for (size_t i = 0; i < scan_kf_.size(); ++i)
@@ -98,6 +106,17 @@ class GraphBuilder {
   }
 
  private:
+  // Long logs take tens of seconds: a line now and then says it is moving.
+  void ReportProgress(size_t scans_done) {
+    if (!progress_ || Since(last_report_) < o_.progress_interval_s) return;
+    last_report_ = Clock::now();
+    const MapperStats& st = res_.stats;
+    *progress_ << "map: scan " << scans_done << " of " << log_.scans.size() << ", "
+               << res_.keyframes.size() << " keyframes, " << st.loop_accepted << " loop closures, "
+               << st.tracking_failures << " fell back to odometry, " << std::fixed
+               << std::setprecision(1) << Since(start_) << " s" << std::defaultfloat << "\n";
+  }
+
   SE2 KeyframePose(size_t k) const { return ToSE2(graph_.vertex(static_cast<int64_t>(k)).x); }
   double OdometryScale() const {
     return odo_den_ > 1.0 ? std::clamp(odo_num_ / odo_den_, 0.8, 1.25) : 1.0;
@@ -317,6 +336,7 @@ class GraphBuilder {
   const CarmenLog& log_;
   const MapperOptions& o_;
   std::ostream* progress_;
+  Clock::time_point start_ = Clock::now(), last_report_ = start_;
   MapResult res_;
   PoseGraph& graph_;
   double match_max_ = 0;
@@ -337,6 +357,14 @@ MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& o, std::ostr
   return GraphBuilder(log, o, progress).Run();
 }
 
+void LayInLogFrame(const CarmenLog& log, MapResult* result) {
+  if (log.scans.empty()) return;
+  const SE2 first = log.scans.front().reference;
+  for (Vertex& v : result->graph.vertices()) v.x = ToParams(first * ToSE2(v.x));
+  for (SE2& p : result->scan_poses) p = first * p;
+  for (SE2& p : result->dead_reckoning) p = first * p;
+}
+
 OccupancyGrid BuildOccupancyGrid(const CarmenLog& log, const std::vector<SE2>& poses,
                                  double max_range, const GridOptions& options) {
   // Beam ends first, for the bounds.
@@ -345,18 +373,28 @@ OccupancyGrid BuildOccupancyGrid(const CarmenLog& log, const std::vector<SE2>& p
     bool hit;
   };
   std::vector<Beam> beams;
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> walls;
   Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
   for (size_t i = 0; i < log.scans.size() && i < poses.size(); ++i) {
     const LaserScan& s = log.scans[i];
     const SE2 sensor = poses[i] * s.laser_offset;
+    bool previous_hit = false;  // the scan's last beam, and where it ended
+    Eigen::Vector2d previous_end;
     for (size_t b = 0; b < s.ranges.size(); ++b) {
       double r = s.ranges[b];
-      if (!(r > 0.01)) continue;
       const bool hit = r < max_range - 1e-3;
+      if (!(r > 0.01) || (!hit && !(options.max_clear_range > 0))) {
+        previous_hit = false;
+        continue;
+      }
       if (!hit) r = std::min(r, options.max_clear_range);
       const double a = s.angle_min + s.angle_increment * b;
       const Eigen::Vector2d end = sensor * Eigen::Vector2d(r * std::cos(a), r * std::sin(a));
+      if (hit && previous_hit && (end - previous_end).norm() <= options.max_wall_gap)
+        walls.emplace_back(previous_end, end);
       beams.push_back({sensor.translation(), end, hit});
+      previous_hit = hit;
+      previous_end = end;
       lo = lo.cwiseMin(end).cwiseMin(sensor.translation());
       hi = hi.cwiseMax(end).cwiseMax(sensor.translation());
     }
@@ -365,6 +403,7 @@ OccupancyGrid BuildOccupancyGrid(const CarmenLog& log, const std::vector<SE2>& p
   const Eigen::Vector2d margin(1.0, 1.0);
   OccupancyGrid grid(lo - margin, hi + margin, options);
   for (const Beam& b : beams) grid.AddBeam(b.from, b.to, b.hit);
+  for (const auto& [a, b] : walls) grid.AddWall(a, b);
   return grid;
 }
 

@@ -22,7 +22,8 @@ struct MapperOptions {
   double keyframe_angle = 0.436;    // radians turned (25 degrees)
   double min_range = 0.05;
   double max_match_range = 60.0;    // longer beams are too sparse to match well
-  // Readings at or above this are "no return"; 0 takes the log's largest.
+  // Readings at or above this are "no return"; 0 takes what the log
+  // declares (CarmenLog::declared_max_range), else its largest reading.
   double max_range = 0;
   int local_map_keyframes = 10;
   double track_linear_window = 0.5;
@@ -48,6 +49,8 @@ struct MapperOptions {
 
   int optimize_every = 5;  // keyframes between solves triggered by loop closures
   OptimizeOptions optimize;
+  // Seconds between the progress lines BuildPoseGraph writes (with a stream).
+  double progress_interval_s = 5;
 };
 
 struct KeyFrame {
@@ -71,9 +74,17 @@ struct MapResult {
   MapperStats stats;
 };
 
-// `progress` (may be null) gets a line per loop closure accepted.
+// `progress` (may be null) gets a line per loop closure accepted and, every
+// progress_interval_s, where the walk through the log stands (scan i of N,
+// keyframes, loop closures, scans that fell back to odometry, seconds).
 MapResult BuildPoseGraph(const CarmenLog& log, const MapperOptions& options,
                          std::ostream* progress = nullptr);
+
+// BuildPoseGraph lays its result in the first scan's frame (that scan at the
+// origin, heading along +x); this moves it into the log's own frame (the
+// first scan at the pose its laser line carries), so that it overlays what
+// else the log's frame describes. Vertices, scan poses and dead reckoning.
+void LayInLogFrame(const CarmenLog& log, MapResult* result);
 
 // The grid from every scan at its pose (beams at max_range only clear).
 OccupancyGrid BuildOccupancyGrid(const CarmenLog& log, const std::vector<SE2>& poses,

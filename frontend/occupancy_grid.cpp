@@ -54,6 +54,32 @@ void OccupancyGrid::AddBeam(const Eigen::Vector2d& origin, const Eigen::Vector2d
   update(x1, y1, hit ? static_cast<float>(o_.log_odds_hit) : miss);
 }
 
+void OccupancyGrid::AddWall(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  int x0, y0, x1, y1;
+  Cell(a, &x0, &y0);
+  Cell(b, &x1, &y1);
+  if (x0 == x1 && y0 == y1) return;
+  const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
+  const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
+  int err = dx + dy, x = x0, y = y0;
+  const float hit = static_cast<float>(o_.log_odds_hit);
+  for (;;) {
+    const int e2 = 2 * err;
+    if (e2 >= dy) {
+      err += dy;
+      x += sx;
+    }
+    if (e2 <= dx) {
+      err += dx;
+      y += sy;
+    }
+    if ((x == x1 && y == y1) || x < 0 || y < 0 || x >= w_ || y >= h_) return;
+    const size_t i = static_cast<size_t>(y) * w_ + x;
+    lo_[i] = std::clamp(lo_[i] + hit, static_cast<float>(-o_.clamp), static_cast<float>(o_.clamp));
+    known_[i] = 1;
+  }
+}
+
 double OccupancyGrid::Probability(int cx, int cy) const {
   return 1.0 - 1.0 / (1.0 + std::exp(LogOdds(cx, cy)));
 }

@@ -17,7 +17,14 @@ struct GridOptions {
   double log_odds_hit = 0.85;    // ~ p 0.7
   double log_odds_miss = -0.4;   // ~ p 0.4
   double clamp = 5.0;            // saturation, so that cells can still change
-  double max_clear_range = 15.0; // how far a no-return beam clears
+  // How far a no-return beam clears; 0: not at all. Short, since no return
+  // is as often glass, a door or a dark surface as open space, and a map
+  // with free space outside the building leads a planner out through walls.
+  double max_clear_range = 3.0;
+  // Consecutive hits of one scan closer than this are joined by occupied
+  // cells, so that beams spread apart at range leave no gaps in a wall; a
+  // doorway is wider.
+  double max_wall_gap = 0.3;
 };
 
 class OccupancyGrid {
@@ -28,6 +35,9 @@ class OccupancyGrid {
   // One beam from `origin` to `end`; `hit` false for a no-return beam
   // (then `end` is where clearing stops).
   void AddBeam(const Eigen::Vector2d& origin, const Eigen::Vector2d& end, bool hit);
+  // Marks the cells strictly between two hits of one scan occupied (as one
+  // hit each), for a wall the beams between them would have seen.
+  void AddWall(const Eigen::Vector2d& a, const Eigen::Vector2d& b);
 
   int width() const { return w_; }
   int height() const { return h_; }

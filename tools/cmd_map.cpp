@@ -2,6 +2,7 @@
 // log to a pose graph, an occupancy grid and the trajectory.
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <iostream>
 #include <stdexcept>
@@ -35,8 +36,9 @@ void PrintErrors(const char* what, const frontend::TrajectoryErrors& e) {
 }
 
 struct MapArgs {
-  std::string log_path, prefix, graph_path, reference_map, solver = "ceres";
+  std::string log_path, prefix, graph_path, reference_map, solver = "ceres", frame = "first-scan";
   double resolution = 0.05, max_range = 0, kf_dist = 0.5, kf_angle_deg = 25;
+  double no_return_clear = frontend::GridOptions{}.max_clear_range;
   bool quiet = false;
 };
 
@@ -47,12 +49,21 @@ void DeclareOptions(ArgParser& args, MapArgs& a) {
   args.Option("graph", &a.graph_path, "OUT.g2o", "also write the optimised pose graph (g2o; TORO if *.graph)");
   args.Option("resolution", &a.resolution, "M", "grid cell size in metres");
   args.Option("solver", &a.solver, "NAME", "back-end: ceres (Levenberg-Marquardt) or gn (Gauss-Newton)");
-  args.Option("max-range", &a.max_range, "M", "readings at or above this mean no return (0: the log's largest)");
+  args.Option("max-range", &a.max_range, "M",
+              "readings at or above this mean no return (0: the maximum the log declares, else "
+              "its largest reading)");
+  args.Option("no-return-clear", &a.no_return_clear, "M",
+              "how far a no-return beam clears free space (0: not at all)");
+  args.Option("frame", &a.frame, "first-scan|log",
+              "lay the map, trajectory, keyframes and graph in the first scan's frame (that scan "
+              "at the origin) or in the log's own (the first scan at the pose its line carries)");
   args.Option("keyframe-distance", &a.kf_dist, "M", "metres travelled between keyframes");
   args.Option("keyframe-angle", &a.kf_angle_deg, "DEG", "degrees turned between keyframes");
   args.Option("reference-map", &a.reference_map, "FILE.png",
               "also draw the grid from the log's own poses, for comparison (never used by the front-end)");
-  args.Flag("quiet", &a.quiet, "do not report loop closures as they are accepted");
+  args.Flag("quiet", &a.quiet,
+            "no progress lines (where the walk through the log stands, every 5 s, and each loop "
+            "closure accepted)");
 }
 
 // The front-end's options from the arguments; false (the error printed)
@@ -68,8 +79,14 @@ bool MakeMapperOptions(const MapArgs& a, frontend::MapperOptions* mo) {
     PrintError(e.what());
     return false;
   }
-  if (!(a.resolution > 0) || !(a.kf_dist > 0) || !(a.kf_angle_deg > 0) || a.max_range < 0) {
-    PrintError("resolution, keyframe distance and angle must be positive");
+  if (!(a.resolution > 0) || !(a.kf_dist > 0) || !(a.kf_angle_deg > 0) || a.max_range < 0 ||
+      !(a.no_return_clear >= 0)) {
+    PrintError("resolution, keyframe distance and angle must be positive, --max-range and "
+               "--no-return-clear not negative");
+    return false;
+  }
+  if (a.frame != "first-scan" && a.frame != "log") {
+    PrintError("--frame must be first-scan or log, not '" + a.frame + "'");
     return false;
   }
   mo->keyframe_distance = a.kf_dist;
@@ -88,9 +105,23 @@ void DeclareFiles(const MapArgs& a, CommandOutputs& outputs) {
   outputs.Output(a.prefix + ".png");
   outputs.Output(a.prefix + "_trajectory.tum");
   outputs.Output(a.prefix + "_trajectory.svg");
+  outputs.Output(a.prefix + "_keyframes.csv");
   outputs.GraphOutput(a.graph_path);
   outputs.Output(a.reference_map, ".png");
   outputs.Check();
+}
+
+// Keyframes by the index of their scan among the log's laser lines, which
+// pairs them with the log even where timestamps repeat (csail's 6 digits).
+void WriteKeyframes(const frontend::CarmenLog& log, const frontend::MapResult& res, std::ostream& o) {
+  o << "keyframe,scan,timestamp,x,y,theta\n";
+  char buf[96];
+  for (size_t k = 0; k < res.keyframes.size(); ++k) {
+    const size_t s = res.keyframes[k].scan;
+    const SE2 pose = ToSE2(res.graph.vertex(static_cast<int64_t>(k)).x);
+    std::snprintf(buf, sizeof buf, ",%.17g,%.17g,%.17g\n", pose.x(), pose.y(), pose.theta());
+    o << k << ',' << s << ',' << log.scans[s].timestamp_text << buf;
+  }
 }
 
 // Writes the declared outputs but the reference map, each to its temporary
@@ -111,6 +142,7 @@ frontend::Trajectory WriteOutputs(const MapArgs& a, const frontend::CarmenLog& l
     traj.Add(log.scans[s].timestamp, kf_poses.back(), static_cast<long>(s), log.scans[s].timestamp_text);
   }
   outputs.Write(prefix + "_trajectory.tum", [&](std::ostream& o) { frontend::WriteTum(traj, o); });
+  outputs.Write(prefix + "_keyframes.csv", [&](std::ostream& o) { WriteKeyframes(log, res, o); });
   outputs.Write(prefix + "_trajectory.svg", [&](std::ostream& o) {
     WriteSvgPlot(o, {TrajectoryPanel({{"dead reckoning", "#d62728", res.dead_reckoning},
                                       {"optimised keyframes", "#1f77b4", kf_poses}})});
@@ -153,7 +185,9 @@ int RunMap(int argc, char** argv) {
                  "closures are verified by scan matching and added with a robust loss, and the\n"
                  "graph is optimised as it grows. Writes PREFIX.pgm + PREFIX.yaml (ROS map_server),\n"
                  "PREFIX.png, PREFIX_trajectory.svg (dead reckoning and result) and\n"
-                 "PREFIX_trajectory.tum (keyframes, the log's scan timestamps). When the log holds\n"
+                 "PREFIX_trajectory.tum (keyframes, the log's scan timestamps), PREFIX_keyframes.csv\n"
+                 "(keyframe,scan,timestamp,x,y,theta; scan: the 0-based index of the keyframe's\n"
+                 "laser line among the log's laser lines). When the log holds\n"
                  "reference poses, prints the trajectory errors of dead reckoning and of the result.\n"
                  "Stage timings go to stderr.");
   DeclareOptions(args, a);
@@ -170,12 +204,14 @@ int RunMap(int argc, char** argv) {
   if (log.scans.size() < 2) throw std::runtime_error(a.log_path + ": fewer than two laser scans");
 
   t = Clock::now();
-  const frontend::MapResult res = frontend::BuildPoseGraph(log, mo, a.quiet ? nullptr : &std::cerr);
+  frontend::MapResult res = frontend::BuildPoseGraph(log, mo, a.quiet ? nullptr : &std::cerr);
+  if (a.frame == "log") frontend::LayInLogFrame(log, &res);
   const double t_graph = Since(t);
 
   t = Clock::now();
   frontend::GridOptions go;
   go.resolution = a.resolution;
+  go.max_clear_range = a.no_return_clear;
   const frontend::OccupancyGrid grid = frontend::BuildOccupancyGrid(log, res.scan_poses, res.max_range, go);
   const double t_grid = Since(t);
   if (!a.reference_map.empty()) {

@@ -149,6 +149,73 @@ TEST(OccupancyGrid, SingleBeamClearsThenMarksTheHit) {
   EXPECT_EQ(img.pixels[0], 205);                                                        // unknown
 }
 
+TEST(OccupancyGrid, AWallJoinsTwoHitsWithoutTheirEnds) {
+  GridOptions go;
+  go.resolution = 0.1;
+  OccupancyGrid grid({0, 0}, {2, 2}, go);
+  grid.AddWall({0.05, 0.05}, {0.55, 0.05});
+  for (int x = 1; x <= 4; ++x) EXPECT_FLOAT_EQ(grid.LogOdds(x, 0), static_cast<float>(go.log_odds_hit)) << x;
+  EXPECT_FALSE(grid.Known(0, 0));
+  EXPECT_FALSE(grid.Known(5, 0));
+  grid.AddWall({1.05, 1.05}, {1.06, 1.07});  // one cell: nothing between
+  EXPECT_FALSE(grid.Known(10, 10));
+}
+
+// Cells of the grid's trinary image along a segment parallel to y that are
+// not occupied (0), nor their neighbours either side across it.
+int GapsAlong(const OccupancyGrid& grid, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  const Image img = grid.ToTrinary();
+  int gaps = 0;
+  const int steps = static_cast<int>((b - a).norm() / grid.resolution());
+  for (int k = 0; k <= steps; ++k) {
+    int cx, cy;
+    grid.Cell(a + (b - a) * (static_cast<double>(k) / steps), &cx, &cy);
+    bool occupied = false;
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int x = cx + dx;
+      if (x >= 0 && x < grid.width())
+        occupied |= img.pixels[static_cast<size_t>(grid.height() - 1 - cy) * grid.width() + x] == 0;
+    }
+    gaps += !occupied;
+  }
+  return gaps;
+}
+
+// One scan of 1-degree beams at a wall 8 m off: 14 cm between hits, three
+// 5 cm cells. The grid joins them; a doorway-sized gap it leaves.
+TEST(OccupancyGrid, BeamsSpreadAtRangeLeaveNoGapsInAWall) {
+  CarmenLog log;
+  std::vector<Segment> walls = {{{8.01, -3}, {8.01, 3}}, {{8.01, 3.8}, {8.01, 6}}};
+  LaserScan s = Render(walls, SE2(), 181, 30);
+  log.scans = {s};
+  GridOptions go;
+  go.resolution = 0.05;
+  const OccupancyGrid joined = BuildOccupancyGrid(log, {SE2()}, 30, go);
+  EXPECT_EQ(GapsAlong(joined, {8.01, -2.9}, {8.01, 2.9}), 0);
+  EXPECT_GT(GapsAlong(joined, {8.01, 3.1}, {8.01, 3.7}), 8);  // the 0.8 m doorway stays open
+  go.max_wall_gap = 0;
+  const OccupancyGrid beams_only = BuildOccupancyGrid(log, {SE2()}, 30, go);
+  EXPECT_GT(GapsAlong(beams_only, {8.01, -2.9}, {8.01, 2.9}), 40);
+}
+
+TEST(OccupancyGrid, NoReturnBeamsClearAShortWayOrNotAtAll) {
+  CarmenLog log;
+  LaserScan s = Render({}, SE2(), 181, 30);  // nothing in sight: every beam at maximum range
+  log.scans = {s};
+  GridOptions go;
+  go.resolution = 0.1;
+  const OccupancyGrid grid = BuildOccupancyGrid(log, {SE2()}, 30, go);
+  int cx, cy;
+  ASSERT_TRUE(grid.Cell({go.max_clear_range - 0.25, 0}, &cx, &cy));
+  EXPECT_TRUE(grid.Known(cx, cy));
+  EXPECT_LT(grid.LogOdds(cx, cy), 0);
+  EXPECT_FALSE(grid.Cell({go.max_clear_range + 1.5, 0}, &cx, &cy) && grid.Known(cx, cy));
+  go.max_clear_range = 0;
+  const OccupancyGrid untouched = BuildOccupancyGrid(log, {SE2()}, 30, go);
+  for (int y = 0; y < untouched.height(); ++y)
+    for (int x = 0; x < untouched.width(); ++x) EXPECT_FALSE(untouched.Known(x, y));
+}
+
 TEST(ImageIo, PngHasSignatureChunksAndCrc) {
   Image img{3, 2, 1, {0, 128, 255, 10, 20, 30}};
   std::ostringstream os;
@@ -209,6 +276,73 @@ TEST(CarmenLog, ReadsRobotLaserWithItsOwnGeometryAndOffset) {
   EXPECT_NEAR(s.laser_offset.y(), offset.y(), 1e-12);
   EXPECT_NEAR(s.laser_offset.theta(), 0, 1e-12);
   EXPECT_DOUBLE_EQ(s.timestamp, 7.25);
+  EXPECT_DOUBLE_EQ(s.max_range, 50);
+  EXPECT_DOUBLE_EQ(log.declared_max_range, 50);
+}
+
+// A FLASER line with n beams of 2.5 m but the first (1 m) and last (3 m).
+std::string Flaser(int n) {
+  std::string line = "FLASER " + std::to_string(n) + " 1";
+  for (int i = 1; i + 1 < n; ++i) line += " 2.5";
+  return line + " 3 0 0 0 0 0 0 1.5 h 1.5\n";
+}
+
+TEST(CarmenLog, FlaserGeometryFromParamLines) {
+  struct Case {
+    std::string params;
+    int beams;
+    double angle_min, increment;
+  };
+  const double deg = M_PI / 180;
+  for (const Case& c : std::vector<Case>{
+           {"", 181, -90 * deg, 1 * deg},  // no PARAM: 180 degrees
+           {"", 180, -90 * deg, 1 * deg},
+           {"PARAM laser_front_laser_fov 90\nPARAM laser_front_laser_resolution 1\n", 91, -45 * deg, deg},
+           {"PARAM laser_front_laser_fov 270\nPARAM laser_front_laser_resolution 0.25\n", 1081,
+            -135 * deg, 0.25 * deg},
+           // Radians in older logs; the span the beams cover, not the rounded value.
+           {"PARAM laser_front_laser_fov 3.14159\nPARAM laser_front_laser_resolution 0.5\n", 361,
+            -90 * deg, 0.5 * deg},
+           // A resolution the beam count does not fit: the field of view split by the count.
+           {"PARAM laser_front_laser_fov 100\nPARAM laser_front_laser_resolution 1\n", 51, -50 * deg,
+            2 * deg},
+           {"PARAM laser_front_laser_resolution 0.5\n", 360, -90 * deg, 0.5 * deg}}) {
+    const CarmenLog log = ReadCarmenLog(WriteTemp("cairn_param.log", c.params + Flaser(c.beams)));
+    ASSERT_EQ(log.scans.size(), 1u);
+    EXPECT_NEAR(log.scans[0].angle_min, c.angle_min, 1e-12) << c.params << c.beams;
+    EXPECT_NEAR(log.scans[0].angle_increment, c.increment, 1e-12) << c.params << c.beams;
+    EXPECT_EQ(log.scans[0].max_range, 0);
+  }
+}
+
+TEST(CarmenLog, FlippedLaserAndDeclaredMaximumRange) {
+  const CarmenLog log = ReadCarmenLog(WriteTemp(
+      "cairn_flipped.log", "PARAM laser_front_laser_flipped 1 h 0\nPARAM robot_front_laser_max 40 h 0\n" +
+                               Flaser(181) + "PARAM laser_front_laser_flipped 0 h 0\n" + Flaser(181)));
+  ASSERT_EQ(log.scans.size(), 2u);
+  EXPECT_EQ(log.scans[0].ranges.front(), 3.0f);
+  EXPECT_EQ(log.scans[0].ranges.back(), 1.0f);
+  EXPECT_EQ(log.scans[1].ranges.front(), 1.0f);
+  EXPECT_DOUBLE_EQ(log.scans[1].max_range, 40);
+  EXPECT_DOUBLE_EQ(log.declared_max_range, 40);
+  EXPECT_DOUBLE_EQ(log.max_reading, 3);
+}
+
+TEST(CarmenLog, BadLaserParameterNamesItsLine) {
+  for (const char* bad : {"PARAM laser_front_laser_fov wide\n", "PARAM laser_front_laser_fov -10\n",
+                          "PARAM laser_front_laser_resolution 0\n", "PARAM robot_front_laser_max nan\n"}) {
+    const std::string path = WriteTemp("cairn_badparam.log", std::string("# log\n") + bad + Flaser(181));
+    try {
+      ReadCarmenLog(path);
+      ADD_FAILURE() << "no error for " << bad;
+    } catch (const ParseError& e) {
+      EXPECT_EQ(e.line(), 2u) << e.what();
+    }
+  }
+  // Parameters the front-end does not use say what they like.
+  EXPECT_EQ(ReadCarmenLog(WriteTemp("cairn_okparam.log", "PARAM robot_use_laser on h 0\n" + Flaser(181)))
+                .scans.size(),
+            1u);
 }
 
 TEST(CarmenLog, MalformedLineNamesFileAndLine) {
@@ -309,6 +443,94 @@ PoseGraph SquareLoop() {
   lc.z = ToParams(SE2(3, 3, 1));  // wrong
   g.AddEdge(lc);
   return g;
+}
+
+// A drive through the room, as a corrected CARMEN log: ODOM lines at the
+// true poses (the chain restarts at each scan's pose), FLASER lines with
+// stamps repeated in pairs, as a log with too few digits has them.
+std::string RoomDriveLog(int scans, std::vector<SE2>* truth) {
+  std::ostringstream log;
+  log.precision(17);
+  for (int i = 0; i < scans; ++i) {
+    const SE2 pose(1.5 + 0.12 * i, 1.2 + 0.05 * i, 0.2 + 0.01 * i);
+    truth->push_back(pose);
+    const std::string stamp = std::to_string(100 + i / 2) + ".5";
+    log << "ODOM " << pose.x() << ' ' << pose.y() << ' ' << pose.theta() << " 0 0 0 " << stamp << " h "
+        << stamp << "\n";
+    const LaserScan s = Render(Room(), pose);
+    log << "FLASER " << s.ranges.size();
+    for (float r : s.ranges) log << ' ' << r;
+    for (int k = 0; k < 2; ++k) log << ' ' << pose.x() << ' ' << pose.y() << ' ' << pose.theta();
+    log << ' ' << stamp << " h " << stamp << "\n";
+  }
+  return log.str();
+}
+
+TEST(Mapper, ReportsProgressAsItWalksTheLog) {
+  std::vector<SE2> truth;
+  const CarmenLog log = ReadCarmenLog(WriteTemp("cairn_progress.log", RoomDriveLog(12, &truth)));
+  MapperOptions o;
+  o.progress_interval_s = 0;  // a line after every scan
+  std::ostringstream progress;
+  BuildPoseGraph(log, o, &progress);
+  for (int i = 1; i <= 12; ++i)
+    EXPECT_NE(progress.str().find("map: scan " + std::to_string(i) + " of 12, "), std::string::npos)
+        << progress.str();
+  EXPECT_NE(progress.str().find(" keyframes, 0 loop closures, 0 fell back to odometry, "),
+            std::string::npos)
+      << progress.str();
+  o.progress_interval_s = 1e9;
+  std::ostringstream none;
+  BuildPoseGraph(log, o, &none);
+  EXPECT_EQ(none.str(), "");
+}
+
+TEST(MapTool, WritesKeyframesByScanIndex) {
+  std::vector<SE2> truth;
+  const auto dir = std::filesystem::path(cairn::testing::TempDir()) / "cairn_map_kf";
+  std::filesystem::create_directories(dir);
+  const std::string log = WriteTemp("cairn_map_kf/drive.log", RoomDriveLog(30, &truth));
+  const std::string prefix = (dir / "out").string();
+  const std::string cmd = std::string(CAIRN_TOOL) + " map " + log + " -o " + prefix + " --quiet 2> " +
+                          prefix + ".err";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << ReadAll(prefix + ".err");
+  std::istringstream csv(ReadAll(prefix + "_keyframes.csv"));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "keyframe,scan,timestamp,x,y,theta");
+  long expected_keyframe = 0, last_scan = -1;
+  while (std::getline(csv, line)) {
+    long keyframe = 0, scan = 0;
+    char stamp[32];
+    double x = 0, y = 0, theta = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%ld,%ld,%31[^,],%lf,%lf,%lf", &keyframe, &scan, stamp, &x, &y,
+                          &theta),
+              6)
+        << line;
+    EXPECT_EQ(keyframe, expected_keyframe++);
+    EXPECT_GT(scan, last_scan);
+    ASSERT_LT(scan, 30);
+    last_scan = scan;
+    EXPECT_EQ(std::string(stamp), std::to_string(100 + scan / 2) + ".5");
+    // In the first keyframe's frame, which is the first scan's.
+    const SE2 rel = truth[0].Between(truth[static_cast<size_t>(scan)]);
+    EXPECT_NEAR(x, rel.x(), 0.03) << line;
+    EXPECT_NEAR(y, rel.y(), 0.03) << line;
+    EXPECT_NEAR(theta, rel.theta(), 0.01) << line;
+  }
+  EXPECT_GE(expected_keyframe, 5);
+  // In the log's frame the first keyframe is where the log puts the first scan.
+  const std::string in_log = std::string(CAIRN_TOOL) + " map " + log + " -o " + prefix +
+                             "_log --frame log --quiet 2> " + prefix + ".err";
+  ASSERT_EQ(std::system(in_log.c_str()), 0) << ReadAll(prefix + ".err");
+  std::istringstream csv_log(ReadAll(prefix + "_log_keyframes.csv"));
+  std::getline(csv_log, line);
+  std::getline(csv_log, line);
+  double x = 0, y = 0, theta = 0;
+  ASSERT_EQ(std::sscanf(line.c_str(), "0,0,%*[^,],%lf,%lf,%lf", &x, &y, &theta), 3) << line;
+  EXPECT_DOUBLE_EQ(x, truth[0].x());
+  EXPECT_DOUBLE_EQ(y, truth[0].y());
+  EXPECT_NEAR(theta, truth[0].theta(), 1e-15);
 }
 
 TEST(Optimize, BothSolversCloseTheLoopDespiteAFalseClosure) {

@@ -7,8 +7,11 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <set>
 #include <sstream>
 
+#include "cairn/frontend/carmen_log.h"
+#include "cairn/frontend/trajectory.h"
 #include "test_util.h"
 
 namespace {
@@ -50,6 +53,54 @@ TEST(IntelEndToEnd, MapsUnderFifteenCentimetresAte) {
   const std::string yaml = Slurp(prefix + ".yaml");
   EXPECT_NE(yaml.find("image: intel.pgm"), std::string::npos);
   EXPECT_NE(yaml.find("resolution: 0.05"), std::string::npos);
+}
+
+// csail's stamps have 6 significant digits (hundreds of scans share one):
+// its keyframes pair with the log by scan index, which PREFIX_keyframes.csv
+// gives.
+TEST(CsailEndToEnd, KeyframesPairWithTheLogByScanIndex) {
+  const std::string log_path = cairn::testing::DatasetPath("carmen/csail-corrected.log.gz");
+  CAIRN_REQUIRE_DATASET(log_path);
+  const auto dir = std::filesystem::path(cairn::testing::TempDir()) / "cairn_csail_e2e";
+  std::filesystem::create_directories(dir);
+  const std::string prefix = (dir / "csail").string();
+  const std::string map_cmd = std::string(CAIRN_TOOL) + " map " + log_path + " -o " + prefix +
+                              " --quiet 2> " + prefix + ".stderr";
+  ASSERT_EQ(std::system(map_cmd.c_str()), 0) << Slurp(prefix + ".stderr");
+  const cairn::frontend::CarmenLog log = cairn::frontend::ReadCarmenLog(log_path);
+  cairn::frontend::Trajectory est, ref;
+  for (size_t i = 0; i < log.scans.size(); ++i)
+    ref.Add(static_cast<double>(i), log.scans[i].reference, static_cast<long>(i));
+  std::istringstream csv(Slurp(prefix + "_keyframes.csv"));
+  std::string line;
+  std::getline(csv, line);
+  ASSERT_EQ(line, "keyframe,scan,timestamp,x,y,theta");
+  std::set<std::string> stamps;
+  size_t rows = 0;
+  while (std::getline(csv, line)) {
+    long keyframe = 0, scan = 0;
+    char stamp[64];
+    double x = 0, y = 0, theta = 0;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%ld,%ld,%63[^,],%lf,%lf,%lf", &keyframe, &scan, stamp, &x, &y,
+                          &theta),
+              6)
+        << line;
+    ASSERT_LT(static_cast<size_t>(scan), log.scans.size());
+    EXPECT_EQ(stamp, log.scans[static_cast<size_t>(scan)].timestamp_text);
+    est.Add(static_cast<double>(scan), cairn::SE2(x, y, theta), scan);
+    stamps.insert(stamp);
+    ++rows;
+  }
+  EXPECT_LT(stamps.size(), rows) << "csail's keyframes were expected to share stamps";
+  const cairn::frontend::TrajectoryErrors e = cairn::frontend::EvaluateTrajectory(est, ref);
+  EXPECT_EQ(e.matched, rows);
+  EXPECT_LE(e.ate_rmse, 0.15);
+  // The ATE the tool printed, from the same pairs.
+  char printed[16];
+  std::snprintf(printed, sizeof printed, "ATE %.3f m", e.ate_rmse);
+  EXPECT_NE(Slurp(prefix + ".stderr").find(std::string("result        : ") + printed),
+            std::string::npos)
+      << Slurp(prefix + ".stderr") << " vs " << printed;
 }
 
 }  // namespace

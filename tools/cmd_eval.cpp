@@ -37,7 +37,7 @@ constexpr const char* kDescription =
     "paired), unpaired_est, unpaired_ref, pairing ('stamp', 'vertex id', 'scan index'),\n"
     "max_dt (s), dimension (2 or 3), est_dimension, ref_dimension, align, scale,\n"
     "segment (m), rpe_pairs (segments), and evo's statistics (rmse, mean, median, std,\n"
-    "min, max, count) of each error: ate (|t_ref - t_est'| with est' = S est, m),\n"
+    "min, max, count) of each error: ate (|t_ref - t_est'|, est' the aligned EST, m),\n"
     "ate_rot_deg (angle of R_ref^-1 R_est'), rpe_trans (|t| of E = (ref_i^-1 ref_j)^-1\n"
     "(est_i^-1 est_j) over each segment i->j, m) and rpe_rot_deg (angle of E).";
 

@@ -106,6 +106,10 @@ Trajectory FromTum(const std::string& path, std::istream& in) {
     const double stamp = std::strtod(stamp_text.c_str(), &end);
     if (*end != '\0' || !std::isfinite(stamp))
       throw ParseError(path, no, "bad timestamp '" + stamp_text + "'");
+    // Pairing compares stamps in whole microseconds; a stamp in nanoseconds
+    // would overflow that, and pair nothing or the wrong poses.
+    if (std::abs(stamp) > kMaxAbsStamp)
+      throw ParseError(path, no, "timestamp '" + stamp_text + "' beyond 1e12 s (TUM stamps are seconds)");
     for (double x : v)
       if (!std::isfinite(x)) throw ParseError(path, no, "non-finite value");
     for (int k = 0; k < 3; ++k)

@@ -40,6 +40,9 @@ bool IsPlanar(const SE3& pose);
 SE2 PlanarView(const SE3& pose);
 SE3 Lift(const SE2& pose);
 
+// Stamps are seconds; beyond this (31,000 years) a file holds nanoseconds.
+inline constexpr double kMaxAbsStamp = 1e12;
+
 // Reads by content: a file that starts like a CARMEN log (or ends in .log /
 // .log.gz) gives its reference poses; a g2o file its VERTEX_SE2 or
 // VERTEX_SE3:QUAT poses (a 3D graph gives a 3D trajectory); otherwise TUM

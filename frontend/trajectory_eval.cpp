@@ -70,7 +70,11 @@ struct StampGroup {
 
 std::vector<StampGroup> GroupByStamp(const Trajectory& t) {
   std::map<long long, std::vector<size_t>> at;
-  for (size_t i = 0; i < t.size(); ++i) at[std::llround(t.stamps[i] * 1e6)].push_back(i);
+  for (size_t i = 0; i < t.size(); ++i) {
+    if (!(std::abs(t.stamps[i]) <= kMaxAbsStamp))
+      throw std::runtime_error("stamp " + std::to_string(t.stamps[i]) + " is not a time in seconds");
+    at[std::llround(t.stamps[i] * 1e6)].push_back(i);
+  }
   std::vector<StampGroup> groups;
   for (auto& [k, m] : at) groups.push_back({k, std::move(m)});
   return groups;

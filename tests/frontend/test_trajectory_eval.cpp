@@ -286,6 +286,7 @@ TEST(TrajectoryRead, MalformedTumLinesNameFileAndLine) {
   ExpectTumError("zero.tum", good + "2.0 1 2 3 0 0 0 0\n", 2, "zero quaternion");
   ExpectTumError("norm.tum", good + "2.0 1 2 3 0 0 0 2\n", 2, "far from unit length");
   ExpectTumError("far.tum", good + "2.0 1 2 3e12 0 0 0 1\n", 2, "beyond");
+  ExpectTumError("ns.tum", good + "1700000000000000000 1 2 3 0 0 0 1\n", 2, "TUM stamps are seconds");
 }
 
 TEST(TrajectoryRead, A3DGraphIsA3DTrajectory) {

@@ -1,6 +1,5 @@
 #include "cairn/frontend/trajectory.h"
 
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

@@ -1,6 +1,5 @@
 #include "cairn/frontend/trajectory.h"
 
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -20,8 +19,38 @@ namespace cairn::frontend {
 void Trajectory::Add(double stamp, const SE2& pose, long index, std::string text) {
   stamps.push_back(stamp);
   poses.push_back(pose);
+  poses3d.push_back(Lift(pose));
   scan_index.push_back(index);
   stamp_texts.push_back(std::move(text));
+}
+
+void Trajectory::Add(double stamp, const SE3& pose, long index, std::string text) {
+  Add(stamp, PlanarView(pose), index, std::move(text));
+  poses3d.back() = pose;
+  if (!IsPlanar(pose)) dimension = 3;
+}
+
+bool IsPlanar(const SE3& pose) {
+  const Eigen::Quaterniond& q = pose.rotation();
+  return std::abs(pose.translation().z()) <= kPlanarTolerance && std::abs(q.x()) <= kPlanarTolerance &&
+         std::abs(q.y()) <= kPlanarTolerance;
+}
+
+namespace {
+
+double Yaw(const Eigen::Quaterniond& q) {
+  return std::atan2(2 * (q.w() * q.z() + q.x() * q.y()), 1 - 2 * (q.y() * q.y() + q.z() * q.z()));
+}
+
+}  // namespace
+
+SE2 PlanarView(const SE3& pose) {
+  return SE2(pose.translation().x(), pose.translation().y(), Yaw(pose.rotation()));
+}
+
+SE3 Lift(const SE2& pose) {
+  return SE3(Eigen::Quaterniond(Eigen::AngleAxisd(pose.theta(), Eigen::Vector3d::UnitZ())),
+             Eigen::Vector3d(pose.x(), pose.y(), 0));
 }
 
 namespace {
@@ -41,12 +70,18 @@ Trajectory FromCarmen(const std::string& path) {
 
 Trajectory FromG2o(const std::string& path) {
   const PoseGraph g = ReadGraph(path);
-  if (g.dimension() != 2) throw std::runtime_error(path + ": not a 2D graph");
   Trajectory t;
   t.stamps_are_ids = true;
-  std::map<int64_t, SE2> sorted;
-  for (const Vertex& v : g.vertices()) sorted[v.id] = ToSE2(v.x);
-  for (const auto& [id, pose] : sorted) t.Add(static_cast<double>(id), pose);
+  std::map<int64_t, const Vertex*> sorted;
+  for (const Vertex& v : g.vertices()) sorted[v.id] = &v;
+  for (const auto& [id, v] : sorted) {
+    if (g.dimension() == 2)
+      t.Add(static_cast<double>(id), ToSE2(v->x));
+    else
+      t.Add(static_cast<double>(id), ToSE3(v->x));
+  }
+  // A 3D graph is evaluated in 3D even when it happens to lie in the plane.
+  if (g.dimension() == 3) t.dimension = 3;
   return t;
 }
 
@@ -70,13 +105,29 @@ Trajectory FromTum(const std::string& path, std::istream& in) {
     const double stamp = std::strtod(stamp_text.c_str(), &end);
     if (*end != '\0' || !std::isfinite(stamp))
       throw ParseError(path, no, "bad timestamp '" + stamp_text + "'");
+    // Pairing compares stamps in whole microseconds; a stamp in nanoseconds
+    // would overflow that, and pair nothing or the wrong poses.
+    if (std::abs(stamp) > kMaxAbsStamp)
+      throw ParseError(path, no, "timestamp '" + stamp_text + "' beyond 1e12 s (TUM stamps are seconds)");
     for (double x : v)
       if (!std::isfinite(x)) throw ParseError(path, no, "non-finite value");
-    const double qx = v[3], qy = v[4], qz = v[5], qw = v[6];
-    const double n = std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw);
+    for (int k = 0; k < 3; ++k)
+      if (std::abs(v[k]) > kMaxAbsCoordinate) {
+        std::ostringstream msg;
+        msg << "coordinate " << v[k] << " beyond " << kMaxAbsCoordinate << " in magnitude";
+        throw ParseError(path, no, msg.str());
+      }
+    const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
+    const double n = q.norm();
     if (n < 1e-9) throw ParseError(path, no, "zero quaternion");
-    const double yaw = std::atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz));
-    t.Add(stamp, SE2(v[0], v[1], yaw), -1, stamp_text);
+    // As the g2o reader: rounding in the file is corrected, a quaternion far
+    // from unit length is a wrong column, not a rotation.
+    if (std::abs(n - 1) > 1e-2)
+      throw ParseError(path, no, "quaternion is far from unit length (norm " + std::to_string(n) + ")");
+    t.Add(stamp, SE3(q, Eigen::Vector3d(v[0], v[1], v[2])), -1, stamp_text);
+    // The planar view from the quaternion as written, not as normalised: a
+    // planar file evaluates bit for bit as it did before 3D was read.
+    t.poses.back() = SE2(v[0], v[1], Yaw(q));
   }
   return t;
 }
@@ -110,117 +161,27 @@ void WriteTum(const Trajectory& traj, std::ostream& out) {
   const std::streamsize precision = out.precision(17);
   out << "# timestamp x y z qx qy qz qw\n";
   for (size_t i = 0; i < traj.size(); ++i) {
-    const SE2& p = traj.poses[i];
-    const double h = 0.5 * p.theta();
     if (!traj.stamp_texts[i].empty())
       out << traj.stamp_texts[i];
     else
       out << traj.stamps[i];
-    out << ' ' << p.x() << ' ' << p.y() << " 0 0 0 " << std::sin(h) << ' ' << std::cos(h) << '\n';
+    if (traj.dimension == 2) {
+      // Written from the planar view, so that z and the tilt are exactly 0.
+      const SE2& p = traj.poses[i];
+      const double h = 0.5 * p.theta();
+      out << ' ' << p.x() << ' ' << p.y() << " 0 0 0 " << std::sin(h) << ' ' << std::cos(h) << '\n';
+    } else {
+      const Eigen::Vector3d& t = traj.poses3d[i].translation();
+      const Eigen::Quaterniond& q = traj.poses3d[i].rotation();
+      out << ' ' << t.x() << ' ' << t.y() << ' ' << t.z() << ' ' << q.x() << ' ' << q.y() << ' '
+          << q.z() << ' ' << q.w() << '\n';
+    }
   }
   out.precision(precision);
 }
 
 void WriteTum(const Trajectory& traj, const std::string& path) {
   WriteFileAtomically(path, [&](std::ostream& out) { WriteTum(traj, out); });
-}
-
-std::vector<std::pair<size_t, size_t>> Associate(const Trajectory& est, const Trajectory& ref) {
-  std::vector<std::pair<size_t, size_t>> pairs;
-  auto known = [](const Trajectory& t) {
-    for (long i : t.scan_index)
-      if (i < 0) return false;
-    return !t.scan_index.empty();
-  };
-  if (known(est) && known(ref) && !est.stamps_are_ids && !ref.stamps_are_ids) {
-    std::map<long, size_t> ref_at;
-    for (size_t j = 0; j < ref.size(); ++j) ref_at.emplace(ref.scan_index[j], j);
-    for (size_t i = 0; i < est.size(); ++i) {
-      auto it = ref_at.find(est.scan_index[i]);
-      if (it != ref_at.end()) pairs.emplace_back(i, it->second);
-    }
-    return pairs;
-  }
-  if (est.stamps_are_ids || ref.stamps_are_ids) {
-    // g2o vertex k pairs with the k-th pose of a timed trajectory, or with
-    // vertex k of another graph.
-    auto rank_or_id = [](const Trajectory& t, size_t i) {
-      return t.stamps_are_ids ? static_cast<long>(std::llround(t.stamps[i])) : static_cast<long>(i);
-    };
-    std::map<long, size_t> ref_at;
-    for (size_t j = 0; j < ref.size(); ++j) ref_at.emplace(rank_or_id(ref, j), j);
-    for (size_t i = 0; i < est.size(); ++i) {
-      auto it = ref_at.find(rank_or_id(est, i));
-      if (it != ref_at.end()) pairs.emplace_back(i, it->second);
-    }
-    return pairs;
-  }
-  // Equal stamps (a log that prints times too coarsely) pair in order of
-  // appearance, but only when both sides hold the same number of them:
-  // otherwise which is which cannot be told, and the group is left out.
-  auto key = [](double s) { return std::llround(s * 1e6); };
-  std::map<long long, std::vector<size_t>> ref_at, est_at;
-  for (size_t j = 0; j < ref.size(); ++j) ref_at[key(ref.stamps[j])].push_back(j);
-  for (size_t i = 0; i < est.size(); ++i) est_at[key(est.stamps[i])].push_back(i);
-  for (const auto& [k, is] : est_at) {
-    auto it = ref_at.find(k);
-    if (it == ref_at.end() || it->second.size() != is.size()) continue;
-    for (size_t m = 0; m < is.size(); ++m) pairs.emplace_back(is[m], it->second[m]);
-  }
-  std::sort(pairs.begin(), pairs.end());
-  return pairs;
-}
-
-TrajectoryErrors EvaluateTrajectory(const Trajectory& est, const Trajectory& ref, double segment) {
-  TrajectoryErrors out;
-  const auto pairs = Associate(est, ref);
-  out.matched = pairs.size();
-  if (pairs.size() < 2) return out;
-  // Rigid 2D alignment (Umeyama without scale) of est positions onto ref.
-  Eigen::Vector2d me = Eigen::Vector2d::Zero(), mr = Eigen::Vector2d::Zero();
-  for (auto [i, j] : pairs) {
-    me += est.poses[i].translation();
-    mr += ref.poses[j].translation();
-  }
-  me /= pairs.size();
-  mr /= pairs.size();
-  Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
-  for (auto [i, j] : pairs)
-    cov += (ref.poses[j].translation() - mr) * (est.poses[i].translation() - me).transpose();
-  Eigen::JacobiSVD<Eigen::Matrix2d> svd(cov, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix2d S = Eigen::Matrix2d::Identity();
-  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) S(1, 1) = -1;
-  const Eigen::Matrix2d R = svd.matrixU() * S * svd.matrixV().transpose();
-  const Eigen::Vector2d t = mr - R * me;
-  double sum = 0;
-  for (auto [i, j] : pairs) sum += (R * est.poses[i].translation() + t - ref.poses[j].translation()).squaredNorm();
-  out.ate_rmse = std::sqrt(sum / pairs.size());
-
-  // RPE: from each matched pose, the first later one at least `segment`
-  // metres further along the reference path.
-  std::vector<double> along(pairs.size(), 0);
-  for (size_t k = 1; k < pairs.size(); ++k)
-    along[k] = along[k - 1] + (ref.poses[pairs[k].second].translation() -
-                               ref.poses[pairs[k - 1].second].translation()).norm();
-  double st = 0, sr = 0;
-  size_t n = 0, b = 0;
-  for (size_t a = 0; a < pairs.size(); ++a) {
-    if (b < a) b = a;
-    while (b < pairs.size() && along[b] - along[a] < segment) ++b;
-    if (b >= pairs.size()) break;
-    const SE2 dr = ref.poses[pairs[a].second].Between(ref.poses[pairs[b].second]);
-    const SE2 de = est.poses[pairs[a].first].Between(est.poses[pairs[b].first]);
-    const SE2 e = dr.Between(de);
-    st += e.translation().squaredNorm();
-    sr += e.theta() * e.theta();
-    ++n;
-  }
-  if (n) {
-    out.rpe_trans_rmse = std::sqrt(st / n);
-    out.rpe_rot_rmse_deg = std::sqrt(sr / n) * 180 / M_PI;
-  }
-  out.rpe_pairs = n;
-  return out;
 }
 
 }  // namespace cairn::frontend

@@ -1,7 +1,6 @@
-// Planar trajectories for evaluation: reading them (TUM text, g2o vertices,
-// the reference poses of a CARMEN log), writing TUM, and the two standard
-// errors: absolute trajectory error after the best rigid alignment and the
-// relative pose error over fixed-length segments.
+// Trajectories for evaluation, planar or in space: reading them (TUM text,
+// g2o vertices of a 2D or 3D graph, the reference poses of a CARMEN log) and
+// writing TUM. The errors between two of them are frontend/trajectory_eval.h.
 #pragma once
 
 #include <iosfwd>
@@ -18,42 +17,43 @@ struct Trajectory {
   // CARMEN trajectory carries its scan indices too).
   std::vector<double> stamps;
   std::vector<std::string> stamp_texts;  // as read, for writing back
+  // Both views of every pose: the planar one (x, y, yaw) a 2D evaluation
+  // uses, and the one in space, where a planar pose sits at z = 0, level.
   std::vector<SE2> poses;
+  std::vector<SE3> poses3d;
   std::vector<long> scan_index;  // -1 when unknown
   bool stamps_are_ids = false;
+  // 3 for a 3D graph, or once a pose in space leaves the plane (|z|, roll or
+  // pitch above kPlanarTolerance): only then is the trajectory evaluated in 3D.
+  int dimension = 2;
 
   void Add(double stamp, const SE2& pose, long index = -1, std::string text = {});
+  void Add(double stamp, const SE3& pose, long index = -1, std::string text = {});
   size_t size() const { return poses.size(); }
 };
 
+// A TUM line written from a planar pose reads back with z and the quaternion's
+// x, y at exactly 0; other tools print rounding noise there.
+inline constexpr double kPlanarTolerance = 1e-9;
+bool IsPlanar(const SE3& pose);
+// The planar view of a pose in space: x, y and the yaw of its rotation.
+SE2 PlanarView(const SE3& pose);
+SE3 Lift(const SE2& pose);
+
+// Stamps are seconds; beyond this (31,000 years) a file holds nanoseconds.
+inline constexpr double kMaxAbsStamp = 1e12;
+
 // Reads by content: a file that starts like a CARMEN log (or ends in .log /
-// .log.gz) gives its reference poses; a g2o file its VERTEX_SE2 poses;
-// otherwise TUM text ("t x y z qx qy qz qw", yaw taken from the quaternion).
-// Errors are "FILE:LINE: message" (cairn::ParseError).
+// .log.gz) gives its reference poses; a g2o file its VERTEX_SE2 or
+// VERTEX_SE3:QUAT poses (a 3D graph gives a 3D trajectory); otherwise TUM
+// text ("timestamp tx ty tz qx qy qz qw", '#' starts a comment line), 3D as
+// soon as one pose leaves the plane. Errors are "FILE:LINE: message"
+// (cairn::ParseError).
 Trajectory ReadTrajectory(const std::string& path);
 
-// TUM text: "timestamp x y z qx qy qz qw" with z = 0 and a yaw quaternion.
+// TUM text: "timestamp x y z qx qy qz qw"; a planar trajectory with z = 0 and
+// a yaw quaternion.
 void WriteTum(const Trajectory& traj, const std::string& path);
 void WriteTum(const Trajectory& traj, std::ostream& out);  // for an OutputSet
-
-struct TrajectoryErrors {
-  size_t matched = 0;
-  double ate_rmse = 0;          // metres
-  double rpe_trans_rmse = 0;    // metres, over segments of `segment` m
-  double rpe_rot_rmse_deg = 0;  // degrees
-  size_t rpe_pairs = 0;
-};
-
-// Pairs poses of `est` and `ref`, in est's order: by scan index when both
-// know it; a g2o graph's vertex k with the k-th pose of the other file; else
-// by stamp. Equal stamps (some logs print times too coarsely to tell scans
-// apart) pair in order of appearance when both sides hold as many of them,
-// and are left out otherwise.
-std::vector<std::pair<size_t, size_t>> Associate(const Trajectory& est, const Trajectory& ref);
-
-// ATE after the least-squares rigid (rotation + translation) alignment of
-// est onto ref; RPE over segments of `segment` metres of reference path.
-TrajectoryErrors EvaluateTrajectory(const Trajectory& est, const Trajectory& ref,
-                                    double segment = 1.0);
 
 }  // namespace cairn::frontend

@@ -35,4 +35,8 @@ build/cairn eval build/demo/manhattan_opt.g2o build/demo/manhattan_truth.g2o | g
 echo "== demo: both solvers side by side on a simulated 3D sphere"
 build/cairn simulate --dim 3 --poses 2500 --seed 7 -o build/demo/sphere.g2o
 build/cairn compare --quiet build/demo/sphere.g2o
+echo "-- its trajectory error in 3D against the ground truth, odometry then optimised:"
+build/cairn optimize build/demo/sphere.g2o -o build/demo/sphere_opt.g2o --quiet
+build/cairn eval build/demo/sphere.g2o build/demo/sphere_truth.g2o | grep ATE
+build/cairn eval build/demo/sphere_opt.g2o build/demo/sphere_truth.g2o | grep ATE
 echo "== demo outputs are in build/demo/ (manhattan.svg: before and after)"

@@ -13,6 +13,7 @@
 #include "cairn/frontend/mapper.h"
 #include "cairn/graph/svg_plot.h"
 #include "cairn/frontend/trajectory.h"
+#include "cairn/frontend/trajectory_eval.h"
 #include "tools/args.h"
 #include "tools/command.h"
 #include "tools/outputs.h"

@@ -19,6 +19,7 @@
 #include "cairn/frontend/optimize.h"
 #include "cairn/frontend/scan_matcher.h"
 #include "cairn/frontend/trajectory.h"
+#include "cairn/frontend/trajectory_eval.h"
 
 namespace cairn::frontend {
 namespace {

@@ -12,6 +12,7 @@
 
 #include "cairn/frontend/carmen_log.h"
 #include "cairn/frontend/trajectory.h"
+#include "cairn/frontend/trajectory_eval.h"
 #include "test_util.h"
 
 namespace {

@@ -45,7 +45,9 @@ Trajectory FromG2o(const std::string& path) {
   Trajectory t;
   t.stamps_are_ids = true;
   std::map<int64_t, SE2> sorted;
-  for (const Vertex& v : g.vertices()) sorted[v.id] = ToSE2(v.x);
+  // The poses alone: landmarks are not part of the trajectory.
+  for (const Vertex& v : g.vertices())
+    if (!v.landmark) sorted[v.id] = ToSE2(v.x);
   for (const auto& [id, pose] : sorted) t.Add(static_cast<double>(id), pose);
   return t;
 }

@@ -21,7 +21,7 @@ int RunEval(int argc, char** argv) {
                  "Absolute trajectory error (RMSE of positions after the best rigid alignment of\n"
                  "EST onto REF) and relative pose error over segments of reference path, for\n"
                  "planar trajectories. Each file is TUM text ('t x y z qx qy qz qw'), a g2o graph\n"
-                 "(its VERTEX_SE2 poses) or a CARMEN log (the poses on its laser lines). Poses pair\n"
+                 "(its VERTEX_SE2 poses; landmarks are not part of the trajectory) or a CARMEN log (the poses on its laser lines). Poses pair\n"
                  "by timestamp (equal stamps in order of appearance, and only when both files hold as\n"
                  "many: else they are left out, with a warning); two CARMEN logs pair by scan;\n"
                  "a g2o graph has no times, so vertex k pairs with the k-th pose of the other file\n"

@@ -56,6 +56,9 @@ void IncrementalOptimizer::AddPose(int64_t id, const SE3& x, bool fixed) {
   if (graph_.dimension() != 3) throw std::invalid_argument("an SE3 pose in a 2D graph");
   graph_.AddVertex(id, x, fixed);
 }
+void IncrementalOptimizer::AddLandmark(int64_t id, const Eigen::Vector3d& p, bool fixed) {
+  graph_.AddLandmark(id, p, fixed);
+}
 void IncrementalOptimizer::AddOdometry(int64_t from, int64_t to, const SE2& z,
                                        const Eigen::Matrix3d& information) {
   AddEdge(MakeEdge(EdgeKind::kOdometry, from, to, ToParams(z), information));

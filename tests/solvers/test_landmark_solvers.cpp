@@ -13,6 +13,7 @@
 #include "cairn/solvers/covariance.h"
 #include "cairn/solvers/graph_factors.h"
 #include "cairn/solvers/graph_gauss_newton.h"
+#include "cairn/solvers/incremental.h"
 
 namespace cairn {
 namespace {
@@ -112,6 +113,42 @@ TEST(LandmarkSolvers, PosesTiedOnlyThroughLandmarksAreSolvedTogether) {
     EXPECT_NEAR(g.vertex(2).x[1], 3.0, 1e-6);
     EXPECT_NEAR(g.vertex(3).x[2], -0.2, 1e-6);
     EXPECT_NEAR(g.vertex(11).x[0], 2.0, 1e-6);
+  }
+}
+
+// Fed in two halves (the landmarks' observations with their poses), with
+// either solver, the incremental optimiser reaches the batch optimum.
+TEST(LandmarkSolvers, IncrementalReachesTheBatchOptimum) {
+  const Simulation sim = WithLandmarks(2, 3);
+  const PoseGraph& g = sim.noisy;
+  PoseGraph batch = g;
+  GaussNewtonOptions go;
+  go.function_tolerance = 1e-12;
+  ASSERT_TRUE(SolveGaussNewton(batch, go).converged);
+  IncrementalOptions io;
+  io.ceres.function_tolerance = io.gauss_newton.function_tolerance = 1e-12;
+  for (SolverKind s : {SolverKind::kGaussNewton, SolverKind::kCeres}) {
+    IncrementalOptimizer opt(2, io);
+    for (const Vertex& v : g.vertices())
+      if (v.landmark) opt.AddLandmark(v.id, Eigen::Vector3d(v.x[0], v.x[1], 0));
+    std::vector<bool> added(g.edges().size(), false);
+    const int64_t poses = static_cast<int64_t>(g.vertices().size() - g.CountLandmarks());
+    SolveResult r;
+    for (int64_t last : {poses / 2, poses - 1}) {
+      for (const Vertex& v : g.vertices())
+        if (!v.landmark && v.id <= last && !opt.graph().HasVertex(v.id)) opt.AddPose(v.id, ToSE2(v.x));
+      for (size_t k = 0; k < g.edges().size(); ++k) {
+        const Edge& e = g.edges()[k];
+        const int64_t pose_end = e.kind == EdgeKind::kLandmark ? e.from : std::max(e.from, e.to);
+        if (added[k] || pose_end > last) continue;
+        opt.AddEdge(e);
+        added[k] = true;
+      }
+      r = opt.Optimize(s);
+      ASSERT_TRUE(r.usable) << r.message;
+    }
+    EXPECT_NEAR(r.final_chi2, Chi2(batch), 1e-6 * Chi2(batch));
+    EXPECT_EQ(opt.graph().CountEdges(EdgeKind::kLandmark), g.CountEdges(EdgeKind::kLandmark));
   }
 }
 

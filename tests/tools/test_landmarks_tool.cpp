@@ -1,8 +1,11 @@
 // The tool on graphs with landmarks: simulate writes them, info counts them,
-// optimize keeps every landmark vertex and edge with both solvers, and the
+// optimize keeps every landmark vertex and edge with both solvers, --plot
+// draws them, and the
 // commands that treat every vertex as a pose refuse such a graph.
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include "cairn/graph/chi2.h"
@@ -66,10 +69,27 @@ TEST(LandmarksTool, OptimizeKeepsEveryLandmarkWithBothSolvers) {
   }
 }
 
+// Both panels (before, after) draw every landmark as a dot.
+TEST(LandmarksTool, PlotDrawsLandmarks) {
+  const std::string in = Simulated(2), out = testing::TempDir() + "/lmk_plot.g2o";
+  const std::string svg = testing::TempDir() + "/lmk_plot.svg";
+  int status = -1;
+  const std::string log = testing::RunCommand(
+      Tool() + " optimize '" + in + "' -o '" + out + "' --plot '" + svg + "' --quiet 2>&1", &status);
+  ASSERT_EQ(status, 0) << log;
+  std::ifstream f(svg);
+  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  size_t dots = 0;
+  for (size_t at = text.find("<circle"); at != std::string::npos; at = text.find("<circle", at + 1))
+    ++dots;
+  EXPECT_EQ(dots, 2 * ReadGraph(in).CountLandmarks());
+}
+
 TEST(LandmarksTool, PoseOnlyCommandsRefuseLandmarks) {
   const std::string in = Simulated(2), out = testing::TempDir() + "/lmk_refused.g2o";
   for (const std::string args : {"corrupt '" + in + "' -o '" + out + "' --outliers 3",
-                                 "optimize '" + in + "' -o '" + out + "' --reject-outliers"}) {
+                                 "optimize '" + in + "' -o '" + out + "' --reject-outliers",
+                                 "calibrate --g2o '" + in + "' --odometry '" + in + "'"}) {
     int status = -1;
     const std::string log = testing::RunCommand(Tool() + " " + args + " 2>&1", &status);
     EXPECT_NE(status, 0) << args;

@@ -1,7 +1,7 @@
 // The tool on graphs with landmarks: simulate writes them, info counts them,
 // optimize keeps every landmark vertex and edge with both solvers, --plot
-// draws them, and the
-// commands that treat every vertex as a pose refuse such a graph.
+// draws them, and the commands that treat every vertex as a pose refuse
+// such a graph.
 #include <gtest/gtest.h>
 
 #include <fstream>

@@ -73,7 +73,9 @@ Trajectory FromG2o(const std::string& path) {
   Trajectory t;
   t.stamps_are_ids = true;
   std::map<int64_t, const Vertex*> sorted;
-  for (const Vertex& v : g.vertices()) sorted[v.id] = &v;
+  // The poses alone: landmarks are not part of the trajectory.
+  for (const Vertex& v : g.vertices())
+    if (!v.landmark) sorted[v.id] = &v;
   for (const auto& [id, v] : sorted) {
     if (g.dimension() == 2)
       t.Add(static_cast<double>(id), ToSE2(v->x));

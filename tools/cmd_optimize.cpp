@@ -118,8 +118,9 @@ void DeclareOptions(ArgParser& args, OptimizeArgs& a) {
               "write a JSON report: initial_chi2, final_chi2, iterations, time_s, "
               "termination, timings and the per-iteration trace");
   args.Option("covariance", &a.covariance_ids, "IDS",
-              "print the marginal covariances (tangent space, the pose's own frame) of these "
-              "vertices at the optimum, e.g. 3,17,42, and add them to the --report JSON");
+              "print the marginal covariances (tangent space, the pose's own frame; a "
+              "landmark's in the world frame) of these vertices at the optimum, e.g. 3,17,42, "
+              "and add them to the --report JSON");
   args.Option("plot", &a.plot, "FILE.svg",
               "draw the trajectory before and after, loop closures in red (3D: x-y view)");
   DeclareOutlierOptions(args, a);
@@ -227,9 +228,11 @@ std::vector<Eigen::MatrixXd> Covariances(const PoseGraph& graph, const OptimizeP
   const std::vector<Eigen::MatrixXd> covariances =
       MarginalCovariances(graph, p.covariance_of, p.solver, p.ceres.loop_closure_loss);
   for (size_t k = 0; k < p.covariance_of.size(); ++k) {
-    std::printf("vertex %lld covariance (%s, own frame)%s:\n",
-                static_cast<long long>(p.covariance_of[k]),
-                graph.dimension() == 2 ? "dx dy dtheta" : "dx dy dz wx wy wz",
+    const bool point = graph.vertex(p.covariance_of[k]).landmark;
+    const bool planar = graph.dimension() == 2;
+    std::printf("vertex %lld covariance (%s)%s:\n", static_cast<long long>(p.covariance_of[k]),
+                point ? (planar ? "landmark x y" : "landmark x y z")
+                      : (planar ? "dx dy dtheta, own frame" : "dx dy dz wx wy wz, own frame"),
                 covariances[k].isZero() ? " [held: the gauge or fixed]" : "");
     for (int i = 0; i < covariances[k].rows(); ++i) {
       for (int j = 0; j < covariances[k].cols(); ++j) std::printf(" %14.6e", covariances[k](i, j));
@@ -256,6 +259,7 @@ std::string ReportJson(const OptimizeArgs& a, const OptimizePlan& p, const PoseG
       {"output", a.out},
       {"dimension", std::to_string(graph.dimension())},
       {"vertices", std::to_string(graph.vertices().size())},
+      {"landmarks", std::to_string(graph.CountLandmarks())},
       {"edges", std::to_string(graph.edges().size())},
       {"loop_closures", std::to_string(graph.CountEdges(EdgeKind::kLoopClosure))},
       {"robust", ToString(p.ceres.loop_closure_loss)},

@@ -30,7 +30,10 @@ int RunSimulate(int argc, char** argv) {
       "whenever the walk revisits a place. 3D: circles climbing a sphere (as g2o's\n"
       "create_sphere makes), with loop closures to the previous circle. The noisy\n"
       "graph's estimate chains its odometry; the truth file holds the same edges\n"
-      "with the vertices at their true poses. The same seed gives the same files.");
+      "with the vertices at their true poses. --landmarks N adds point landmarks\n"
+      "(VERTEX_XY / VERTEX_TRACKXYZ), each seen by every pose within the range\n"
+      "(EDGE_SE2_XY / EDGE_SE3_TRACKXYZ, translation noise per axis) and placed in\n"
+      "the noisy graph from its first observation. The same seed gives the same files.");
   args.Option("output", &out, "FILE", "the noisy graph (g2o; TORO if *.graph)");
   args.Alias("-o", "output");
   args.Option("truth", &truth_path, "FILE", "the ground truth [default: OUT_truth.g2o, or .graph]");
@@ -45,6 +48,9 @@ int RunSimulate(int argc, char** argv) {
   args.Option("outliers", &o.outliers, "N", "wrong loop closures to add");
   args.Option("nodes-per-lap", &o.nodes_per_lap, "N", "3D: poses per circle");
   args.Option("radius", &o.radius, "M", "3D: radius of the sphere");
+  args.Option("landmarks", &o.landmarks, "N", "point landmarks to add (ids after the poses')");
+  args.Option("landmark-range", &o.landmark_range, "M",
+              "how far a pose sees a landmark, m [default: 3 in 2D, 10 in 3D]");
   args.Option("seed", &seed, "S", "random seed");
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
@@ -66,9 +72,10 @@ int RunSimulate(int argc, char** argv) {
   outputs.Commit();
   std::fprintf(stderr,
                "wrote %s (%zu vertices, %zu odometry edges, %zu loop closures of which %zu "
-               "wrong; chi2 %.6g) and %s\n",
+               "wrong, %zu landmarks, %zu landmark observations; chi2 %.6g) and %s\n",
                out.c_str(), sim.noisy.vertices().size(), sim.noisy.CountEdges(EdgeKind::kOdometry),
                sim.noisy.CountEdges(EdgeKind::kLoopClosure), sim.outliers.size(),
+               sim.noisy.CountLandmarks(), sim.noisy.CountEdges(EdgeKind::kLandmark),
                Chi2(sim.noisy), truth_path.c_str());
   return 0;
 }

@@ -365,6 +365,8 @@ CalibrationData CalibrationFromGraphs(const PoseGraph& optimised, const PoseGrap
                                       bool use_edge_information) {
   if (optimised.dimension() != 2 || raw.dimension() != 2)
     throw std::invalid_argument("calibration needs planar (SE2) graphs");
+  RequireNoLandmarks(optimised, "odometry calibration");
+  RequireNoLandmarks(raw, "odometry calibration");
   // Odometry step from -> from + 1, keyed by `from`.
   std::map<int64_t, std::pair<Eigen::Vector3d, Eigen::Matrix3d>> steps;
   for (const Edge& e : raw.edges()) {

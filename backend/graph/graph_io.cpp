@@ -182,7 +182,8 @@ class Reader {
     auto tokens = Tokenize(line);
     if (tokens.empty()) return;
     Fields f(std::move(tokens), name_, line_no);
-    if (ReadVertex(f) || ReadBetween(f) || ReadPrior(f) || ReadOther(f))
+    if (ReadVertex(f) || ReadBetween(f) || ReadPrior(f) || ReadLandmark(f) ||
+        ReadObservation(f) || ReadOther(f))
       return;
     Unknown(f, raw);
   }
@@ -191,17 +192,8 @@ class Reader {
     if (dimension_ == 0) throw ParseError(name_, lines, "empty file: no vertices or edges");
     PoseGraph& graph = *graph_;
     const bool edges_only = graph.vertices().empty();
-    if (edges_only) {
-      // No VERTEX lines: every endpoint becomes a vertex, placed later by
-      // chaining the measurements.
-      std::set<int64_t> ids;
-      for (const auto& chunk : edge_chunks_)
-        for (const auto& p : chunk) {
-          ids.insert(p.edge.from);
-          if (!p.edge.IsPrior()) ids.insert(p.edge.to);
-        }
-      for (int64_t id : ids) graph.AddVertex(id, graph.dimension() == 2 ? ToParams(SE2()) : ToParams(SE3()));
-    }
+    for (const auto& [id, p] : offsets_) graph.SetOffset(static_cast<int32_t>(id), ToSE3(p));
+    if (edges_only) AddEndpoints(graph);
     // Edges move from the pending chunks into the graph, each chunk released
     // once moved: a large file's edges are held about once, not twice, at
     // the peak.
@@ -217,7 +209,11 @@ class Reader {
         if (!p.edge.IsPrior() && p.edge.from == p.edge.to)
           throw ParseError(name_, p.line,
                            "edge joins vertex " + std::to_string(p.edge.from) + " to itself");
-        graph.AddEdge(p.edge);
+        try {
+          graph.AddEdge(p.edge);  // the sort of each endpoint is checked there
+        } catch (const std::invalid_argument& e) {
+          throw ParseError(name_, p.line, e.what());
+        }
       }
       std::vector<PendingEdge>().swap(chunk);
     }
@@ -312,6 +308,86 @@ class Reader {
     e->information = j.asDiagonal() * rpy * j.asDiagonal();
   }
 
+  // No VERTEX lines: every endpoint becomes a vertex (a landmark when an
+  // observation or a point prior names it), placed later by chaining the
+  // measurements. An id used as both is an error at the line that shows it.
+  void AddEndpoints(PoseGraph& graph) {
+    std::map<int64_t, std::pair<bool, size_t>> ids;  // id -> (landmark, first line)
+    auto note = [&](int64_t id, bool landmark, size_t line) {
+      const auto [it, fresh] = ids.emplace(id, std::make_pair(landmark, line));
+      if (!fresh && it->second.first != landmark)
+        throw ParseError(name_, line,
+                         "vertex " + std::to_string(id) + " is used as a " +
+                             (landmark ? "landmark" : "pose") + " here and as a " +
+                             (landmark ? "pose" : "landmark") + " on line " +
+                             std::to_string(it->second.second));
+    };
+    for (const auto& chunk : edge_chunks_)
+      for (const auto& p : chunk) {
+        note(p.edge.from, p.edge.kind == EdgeKind::kLandmarkPrior, p.line);
+        if (!p.edge.IsPrior()) note(p.edge.to, p.edge.kind == EdgeKind::kLandmark, p.line);
+      }
+    for (const auto& [id, sort] : ids) {
+      if (sort.first) {
+        graph.AddLandmark(id, Eigen::Vector3d::Zero());
+      } else {
+        graph.AddVertex(id, graph.dimension() == 2 ? ToParams(SE2()) : ToParams(SE3()));
+      }
+    }
+  }
+
+  // VERTEX_XY, VERTEX_TRACKXYZ: point landmarks.
+  bool ReadLandmark(const Fields& f) {
+    const int dim = f.tag() == "VERTEX_XY" ? 2 : f.tag() == "VERTEX_TRACKXYZ" ? 3 : 0;
+    if (dim == 0) return false;
+    SetDimension(f, dim);
+    f.ExpectCount(1 + dim);
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    for (int i = 0; i < dim; ++i) {
+      p[i] = f.Number(2 + i, "a coordinate");
+      f.CheckRange(p[i], kMaxAbsCoordinate, "coordinate", "");
+    }
+    const int64_t id = f.Id(1);
+    if (graph_->HasVertex(id)) f.Fail("duplicate vertex id " + std::to_string(id));
+    graph_->AddLandmark(id, p);
+    return true;
+  }
+
+  // EDGE_SE2_XY, EDGE_SE3_TRACKXYZ (through a PARAMS_SE3OFFSET), and the
+  // point priors EDGE_PRIOR_XY, EDGE_POINTXYZ_PRIOR.
+  bool ReadObservation(const Fields& f) {
+    const std::string& tag = f.tag();
+    const bool prior = tag == "EDGE_PRIOR_XY" || tag == "EDGE_POINTXYZ_PRIOR";
+    const int dim = tag == "EDGE_SE2_XY" || tag == "EDGE_PRIOR_XY"              ? 2
+                    : tag == "EDGE_SE3_TRACKXYZ" || tag == "EDGE_POINTXYZ_PRIOR" ? 3
+                                                                                 : 0;
+    if (dim == 0) return false;
+    SetDimension(f, dim);
+    const size_t info = dim == 2 ? 3 : 6;
+    const bool offset = tag == "EDGE_SE3_TRACKXYZ";
+    const size_t first = (prior ? 2 : 3) + (offset ? 1 : 0);  // of the measurement
+    f.ExpectCount(first - 1 + dim + info);
+    Edge e;
+    e.kind = prior ? EdgeKind::kLandmarkPrior : EdgeKind::kLandmark;
+    e.from = f.Id(1);
+    e.to = prior ? -1 : f.Id(2);
+    if (offset) {
+      const int64_t param = f.Id(3);
+      if (offsets_.count(param) == 0)
+        f.Fail(tag + " names parameter " + std::to_string(param) +
+               ", which no PARAMS_SE3OFFSET line before it defines");
+      e.offset = static_cast<int32_t>(param);
+    }
+    for (int i = 0; i < dim; ++i) {
+      e.z[i] = f.Number(first + i, "a coordinate");
+      f.CheckRange(e.z[i], kMaxAbsCoordinate, "coordinate", "");
+    }
+    ReadUpperTriangle(f, first + dim, dim, &e.information);
+    CheckInformation(f, e.information, dim);
+    PushEdge(f, e);
+    return true;
+  }
+
   // EDGE_PRIOR_SE2, EDGE_SE3_PRIOR (through an identity PARAMS_SE3OFFSET only).
   bool ReadPrior(const Fields& f) {
     const std::string& tag = f.tag();
@@ -332,7 +408,8 @@ class Reader {
       if (it == offsets_.end())
         f.Fail("EDGE_SE3_PRIOR names parameter " + std::to_string(param) +
                ", which no PARAMS_SE3OFFSET line defines");
-      if (!it->second) f.Fail("EDGE_SE3_PRIOR with a non-identity sensor offset is not supported");
+      if (!IsIdentity(it->second))
+        f.Fail("EDGE_SE3_PRIOR with a non-identity sensor offset is not supported");
       for (int i = 0; i < 7; ++i) e.z[i] = f.Number(3 + i, i < 3 ? "a translation" : "a quaternion");
       CheckQuaternion(f, &e.z[3]);
       ReadUpperTriangle(f, 10, 6, &e.information);
@@ -351,8 +428,10 @@ class Reader {
       double p[7];
       for (int i = 0; i < 7; ++i) p[i] = f.Number(2 + i, "an offset");
       CheckQuaternion(f, &p[3]);
-      const bool identity = p[0] == 0 && p[1] == 0 && p[2] == 0 && std::fabs(p[6]) == 1.0;
-      offsets_[f.Id(1)] = identity;
+      const int64_t id = f.Id(1);
+      if (offsets_.count(id)) f.Fail("duplicate PARAMS_SE3OFFSET id " + std::to_string(id));
+      PoseParams& o = offsets_[id];
+      std::copy(p, p + 7, o.begin());
     } else if (f.tag() == "FIX") {
       f.ExpectAtLeast(1);
       for (size_t k = 1; k <= f.size(); ++k) fixed_.push_back({f.Id(k), f.line()});
@@ -382,6 +461,10 @@ class Reader {
 
   void AddEdge(const Fields& f, const Edge& e) {
     CheckPose(f, e.z, e.IsPrior() ? "theta" : "dtheta");
+    PushEdge(f, e);
+  }
+
+  void PushEdge(const Fields& f, const Edge& e) {
     if (edge_chunks_.empty() || edge_chunks_.back().size() == kEdgeChunk) {
       edge_chunks_.emplace_back();
       edge_chunks_.back().reserve(kEdgeChunk);
@@ -437,7 +520,11 @@ class Reader {
   std::vector<std::vector<PendingEdge>> edge_chunks_;
   size_t edge_count_ = 0;
   std::vector<std::pair<int64_t, size_t>> fixed_;
-  std::map<int64_t, bool> offsets_;  // parameter id -> is identity
+  std::map<int64_t, PoseParams> offsets_;  // PARAMS_SE3OFFSET id -> offset
+
+  static bool IsIdentity(const PoseParams& p) {
+    return p[0] == 0 && p[1] == 0 && p[2] == 0 && std::fabs(p[6]) == 1.0;
+  }
   std::vector<VerbatimLine> graph_lines_;
 };
 
@@ -500,41 +587,93 @@ class VerbatimWriter {
   size_t next_ = 0;
 };
 
+
+// The PARAMS_SE3OFFSET id the 3D priors are written through: an identity
+// offset the graph has, else the lowest id it does not use; -1 without priors.
+int64_t PriorOffsetId(const PoseGraph& graph, bool* write_it) {
+  *write_it = false;
+  bool has_se3_prior = false;
+  for (const Edge& e : graph.edges()) has_se3_prior |= e.kind == EdgeKind::kPrior;
+  if (graph.dimension() == 2 || !has_se3_prior) return -1;
+  for (const auto& [id, o] : graph.offsets())
+    if (o.translation().isZero(0) && std::fabs(o.rotation().w()) == 1.0) return id;
+  int64_t id = 0;
+  while (graph.HasOffset(static_cast<int32_t>(id))) ++id;
+  *write_it = true;
+  return id;
+}
+
+void WriteOffsets(const PoseGraph& graph, std::ostream& out, int64_t prior_id, bool write_prior) {
+  for (const auto& [id, o] : graph.offsets()) {
+    out << "PARAMS_SE3OFFSET " << id;
+    WriteNumbers(out, o.ToVector().data(), 7);
+    out << '\n';
+  }
+  if (write_prior) out << "PARAMS_SE3OFFSET " << prior_id << " 0 0 0 0 0 0 1\n";
+}
+
+void WriteVertex(const PoseGraph& graph, const Vertex& v, std::ostream& out) {
+  const bool planar = graph.dimension() == 2;
+  if (v.landmark) {
+    out << (planar ? "VERTEX_XY " : "VERTEX_TRACKXYZ ") << v.id;
+  } else {
+    out << (planar ? "VERTEX_SE2 " : "VERTEX_SE3:QUAT ") << v.id;
+  }
+  WriteNumbers(out, v.x.data(), graph.BlockSize(v));
+  out << '\n';
+}
+
+void WriteEdge(const PoseGraph& graph, const Edge& e, int64_t prior_id, std::ostream& out) {
+  const bool planar = graph.dimension() == 2;
+  switch (e.kind) {
+    case EdgeKind::kPrior:
+      out << (planar ? "EDGE_PRIOR_SE2 " : "EDGE_SE3_PRIOR ") << e.from;
+      if (!planar) out << ' ' << prior_id;
+      break;
+    case EdgeKind::kLandmarkPrior:
+      out << (planar ? "EDGE_PRIOR_XY " : "EDGE_POINTXYZ_PRIOR ") << e.from;
+      break;
+    case EdgeKind::kLandmark:
+      out << (planar ? "EDGE_SE2_XY " : "EDGE_SE3_TRACKXYZ ") << e.from << ' ' << e.to;
+      if (!planar) out << ' ' << e.offset;
+      break;
+    case EdgeKind::kOdometry:
+    case EdgeKind::kLoopClosure:
+      out << (planar ? "EDGE_SE2 " : "EDGE_SE3:QUAT ") << e.from << ' ' << e.to;
+      break;
+  }
+  const int n = graph.ResidualSize(e);
+  WriteNumbers(out, e.z.data(), e.IsLandmark() ? n : graph.ParameterSize());
+  WriteUpperTriangle(out, e.information, n);
+  out << '\n';
+}
+
 }  // namespace
 
 void WriteG2o(const PoseGraph& graph, std::ostream& out) {
-  const bool planar = graph.dimension() == 2;
-  const int np = graph.ParameterSize(), nt = graph.TangentSize();
-  bool has_se3_prior = false;
-  for (const Edge& e : graph.edges()) has_se3_prior |= e.IsPrior() && !planar;
-  if (has_se3_prior) out << "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1\n";
+  bool write_prior_offset = false;
+  const int64_t prior_id = PriorOffsetId(graph, &write_prior_offset);
+  WriteOffsets(graph, out, prior_id, write_prior_offset);
   VerbatimWriter kept(graph, out);
   size_t vertex_index = 0, edge_index = 0;
   for (const Vertex& v : graph.vertices()) {
     kept.Before(vertex_index++, 0);
-    out << (planar ? "VERTEX_SE2 " : "VERTEX_SE3:QUAT ") << v.id;
-    WriteNumbers(out, v.x.data(), np);
-    out << '\n';
+    WriteVertex(graph, v, out);
   }
   kept.Before(VerbatimWriter::kAll, 0);
   for (const Vertex& v : graph.vertices())
     if (v.fixed) out << "FIX " << v.id << '\n';
   for (const Edge& e : graph.edges()) {
     kept.Before(VerbatimWriter::kAll, edge_index++);
-    if (e.IsPrior()) {
-      out << (planar ? "EDGE_PRIOR_SE2 " : "EDGE_SE3_PRIOR ") << e.from;
-      if (!planar) out << " 0";
-    } else {
-      out << (planar ? "EDGE_SE2 " : "EDGE_SE3:QUAT ") << e.from << ' ' << e.to;
-    }
-    WriteNumbers(out, e.z.data(), np);
-    WriteUpperTriangle(out, e.information, nt);
-    out << '\n';
+    WriteEdge(graph, e, prior_id, out);
   }
   kept.Rest();
 }
 
 std::string ToroRefusal(const PoseGraph& graph) {
+  if (graph.HasLandmarks())
+    return "TORO has no landmarks (" + std::to_string(graph.CountLandmarks()) +
+           " here): write it as g2o";
   if (graph.CountEdges(EdgeKind::kPrior) != 0)
     return "TORO has no prior edges (" + std::to_string(graph.CountEdges(EdgeKind::kPrior)) +
            " here): write it as g2o";

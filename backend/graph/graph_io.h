@@ -1,6 +1,8 @@
 // Reading and writing pose-graph files: g2o (VERTEX_SE2, EDGE_SE2,
-// VERTEX_SE3:QUAT, EDGE_SE3:QUAT, EDGE_PRIOR_SE2, EDGE_SE3_PRIOR, FIX) and
-// TORO (VERTEX2, EDGE2, VERTEX3, EDGE3). Errors name the file and line.
+// VERTEX_SE3:QUAT, EDGE_SE3:QUAT, EDGE_PRIOR_SE2, EDGE_SE3_PRIOR, FIX; point
+// landmarks: VERTEX_XY, EDGE_SE2_XY, EDGE_PRIOR_XY, VERTEX_TRACKXYZ,
+// EDGE_SE3_TRACKXYZ, EDGE_POINTXYZ_PRIOR, PARAMS_SE3OFFSET) and TORO
+// (VERTEX2, EDGE2, VERTEX3, EDGE3). Errors name the file and line.
 // Every number must be finite, headings and angles within kMaxAbsAngle rad,
 // coordinates within kMaxAbsCoordinate (text_input.h).
 #pragma once
@@ -27,12 +29,15 @@ struct ReadOptions {
 
 // Reads a g2o or TORO file (told apart by their tags). A file with edges but
 // no vertices gets its vertices by chaining the measurements along a
-// spanning tree from the lowest id. Throws ParseError.
+// spanning tree from the lowest id (landmarks from their first
+// observation). A PARAMS_SE3OFFSET must come before the edges that name it.
+// Throws ParseError.
 PoseGraph ReadGraph(const std::string& path, const ReadOptions& options = {});
 PoseGraph ReadGraph(std::istream& in, const std::string& name, const ReadOptions& options = {});
 
-// Writes g2o with every double in round-trip precision. The file is written
-// beside its destination and renamed when complete: never a half file.
+// Writes g2o with every double in round-trip precision, in g2o's own tags
+// (the graph's PARAMS_SE3OFFSET lines first). The file is written beside
+// its destination and renamed when complete: never a half file.
 void WriteG2o(const PoseGraph& graph, const std::string& path);
 void WriteG2o(const PoseGraph& graph, std::ostream& out);
 

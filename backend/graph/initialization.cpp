@@ -18,9 +18,11 @@ namespace cairn {
 namespace {
 
 // Index of each component's root (fixed vertex first, else lowest id), by
-// vertex index: root_of[i] is true for roots.
+// vertex index: root_of[i] is true for roots. Components by between-edges
+// only: a relative pose cannot be chained, nor a rotation solved, through a
+// point, so poses tied only through landmarks keep their own roots' poses.
 std::vector<bool> ComponentRoots(const PoseGraph& graph) {
-  const auto components = ConnectedComponents(graph);
+  const auto components = ConnectedComponents(graph, /*through_landmarks=*/false);
   std::vector<bool> root(graph.vertices().size(), false);
   for (const auto& ids : components) {
     int64_t chosen = ids.front();
@@ -125,7 +127,7 @@ std::vector<Block> RelaxedRotations(const PoseGraph& graph, const std::vector<bo
   for (size_t i = 0; i < n; ++i) known[i] = rot[i].transpose();
   const Block identity = Block::Identity(d, d);
   for (const Edge& e : graph.edges()) {
-    if (e.IsPrior()) continue;
+    if (!e.JoinsPoses()) continue;
     const size_t i = graph.VertexIndex(e.from), j = graph.VertexIndex(e.to);
     Block z;
     double w;
@@ -168,7 +170,7 @@ void SolveTranslations(const PoseGraph& graph, const std::vector<bool>& anchored
   ts.Reserve(graph.edges().size());
   const Block identity = Block::Identity(d, d);
   for (const Edge& e : graph.edges()) {
-    if (e.IsPrior()) continue;
+    if (!e.JoinsPoses()) continue;
     const size_t i = graph.VertexIndex(e.from), j = graph.VertexIndex(e.to);
     Block rz, tz;
     if (planar) {
@@ -221,6 +223,7 @@ void InitializeByOdometry(PoseGraph& graph) {
       }
     }
   }
+  PlaceLandmarks(graph);
 }
 
 void InitializeChordal(PoseGraph& graph) {
@@ -229,11 +232,13 @@ void InitializeChordal(PoseGraph& graph) {
   const bool planar = graph.dimension() == 2;
   const std::vector<bool> root = ComponentRoots(graph);
   std::vector<bool> anchored(n);
-  for (size_t i = 0; i < n; ++i) anchored[i] = root[i] || vertices[i].fixed;
+  // Points take no part (PlaceLandmarks puts them in afterwards).
+  for (size_t i = 0; i < n; ++i) anchored[i] = root[i] || vertices[i].fixed || vertices[i].landmark;
 
   // Current rotations and translations, as matrices.
   std::vector<Block> rot(n), trans(n);
   for (size_t i = 0; i < n; ++i) {
+    if (vertices[i].landmark) continue;  // no edge of either stage touches one
     if (planar) {
       const SE2 p = ToSE2(vertices[i].x);
       rot[i] = p.rotation();
@@ -257,6 +262,7 @@ void InitializeChordal(PoseGraph& graph) {
       vertices[i].x = ToParams(SE3(Eigen::Quaterniond(r), Eigen::Vector3d(trans[i])));
     }
   }
+  PlaceLandmarks(graph);
 }
 
 InitMethod ParseInitMethod(const std::string& name) {

@@ -10,8 +10,18 @@ PoseDifference ComparePoses(const PoseGraph& a, const PoseGraph& b) {
     throw std::invalid_argument("comparing a 2D graph with a 3D one");
   PoseDifference d;
   const size_t n = a.vertices().size();
+  size_t poses = 0;
   for (const Vertex& va : a.vertices()) {
     const PoseParams& xb = b.vertex(va.id).x;
+    if (va.landmark) {
+      // A point: its position only.
+      double t2 = 0;
+      for (int k = 0; k < a.dimension(); ++k) t2 += (va.x[k] - xb[k]) * (va.x[k] - xb[k]);
+      d.max_translation = std::max(d.max_translation, std::sqrt(t2));
+      d.rms_translation += t2;
+      continue;
+    }
+    ++poses;
     double t, r;
     if (a.dimension() == 2) {
       const SE2 pa = ToSE2(va.x), pb = ToSE2(xb);
@@ -28,10 +38,8 @@ PoseDifference ComparePoses(const PoseGraph& a, const PoseGraph& b) {
     d.rms_translation += t * t;
     d.rms_rotation_deg += r * r;
   }
-  if (n > 0) {
-    d.rms_translation = std::sqrt(d.rms_translation / n);
-    d.rms_rotation_deg = std::sqrt(d.rms_rotation_deg / n);
-  }
+  if (n > 0) d.rms_translation = std::sqrt(d.rms_translation / n);
+  if (poses > 0) d.rms_rotation_deg = std::sqrt(d.rms_rotation_deg / poses);
   return d;
 }
 

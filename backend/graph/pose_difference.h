@@ -11,8 +11,9 @@ struct PoseDifference {
   double max_rotation_deg = 0, rms_rotation_deg = 0;  // angle of the relative rotation
 };
 
-// Over the vertices of `a`, matched by id in `b`; throws std::out_of_range
-// if `b` lacks one, std::invalid_argument if the dimensions differ.
+// Over the vertices of `a`, matched by id in `b` (landmarks: their
+// positions, in the translation figures); throws std::out_of_range if `b`
+// lacks one, std::invalid_argument if the dimensions differ.
 PoseDifference ComparePoses(const PoseGraph& a, const PoseGraph& b);
 
 }  // namespace cairn

@@ -15,6 +15,8 @@ const char* ToString(EdgeKind kind) {
     case EdgeKind::kOdometry: return "odometry";
     case EdgeKind::kLoopClosure: return "loop closure";
     case EdgeKind::kPrior: return "prior";
+    case EdgeKind::kLandmark: return "landmark observation";
+    case EdgeKind::kLandmarkPrior: return "landmark prior";
   }
   return "?";
 }
@@ -30,6 +32,17 @@ Vertex& PoseGraph::AddVertex(int64_t id, const PoseParams& x, bool fixed) {
   return vertices_.back();
 }
 
+Vertex& PoseGraph::AddLandmark(int64_t id, const Eigen::Vector3d& p, bool fixed) {
+  PoseParams x{};
+  for (int i = 0; i < dimension_; ++i) x[i] = p[i];
+  Vertex& v = AddVertex(id, x, fixed);
+  v.landmark = true;
+  ++landmarks_;
+  return v;
+}
+
+void PoseGraph::SetOffset(int32_t id, const SE3& offset) { offsets_[id] = offset; }
+
 Vertex& PoseGraph::AddVertex(int64_t id, const SE2& pose, bool fixed) {
   if (dimension_ != 2) throw std::invalid_argument("an SE2 vertex in a 3D graph");
   return AddVertex(id, ToParams(pose), fixed);
@@ -39,6 +52,18 @@ Vertex& PoseGraph::AddVertex(int64_t id, const SE3& pose, bool fixed) {
   if (dimension_ != 3) throw std::invalid_argument("an SE3 vertex in a 2D graph");
   return AddVertex(id, ToParams(pose), fixed);
 }
+
+namespace {
+
+// Whether vertex `id` is a landmark (true) or a pose, as the edge needs it.
+void CheckSort(const PoseGraph& graph, int64_t id, bool landmark, const Edge& edge) {
+  if (graph.vertex(id).landmark == landmark) return;
+  throw std::invalid_argument(std::string(ToString(edge.kind)) + " edge on vertex " +
+                              std::to_string(id) + ", which is " +
+                              (landmark ? "a pose, not a landmark" : "a landmark, not a pose"));
+}
+
+}  // namespace
 
 void PoseGraph::AddEdge(const Edge& edge) {
   if (!HasVertex(edge.from))
@@ -52,17 +77,28 @@ void PoseGraph::AddEdge(const Edge& edge) {
       throw std::invalid_argument("edge joins vertex " + std::to_string(edge.from) +
                                   " to itself");
   }
+  CheckSort(*this, edge.from, edge.kind == EdgeKind::kLandmarkPrior, edge);
+  if (!edge.IsPrior()) CheckSort(*this, edge.to, edge.kind == EdgeKind::kLandmark, edge);
+  if (edge.kind == EdgeKind::kLandmark && dimension_ == 3 && !HasOffset(edge.offset))
+    throw std::invalid_argument("landmark observation through offset " +
+                                std::to_string(edge.offset) + ", which is not defined");
   if (!IsSymmetricPositiveDefinite(Information(edge)))
     throw std::invalid_argument("information matrix is not symmetric positive definite");
   edges_.push_back(edge);
-  if (dimension_ == 2) {
-    // Keep the unused parts canonical so that equal edges compare equal.
-    Edge& e = edges_.back();
-    const Eigen::Matrix3d used = e.information.topLeftCorner<3, 3>();
+  // Keep the unused parts canonical so that equal edges compare equal.
+  Edge& e = edges_.back();
+  const int n = ResidualSize(e);
+  if (n < 6) {
+    const Eigen::MatrixXd used = e.information.topLeftCorner(n, n);
     e.information.setZero();
-    e.information.topLeftCorner<3, 3>() = used;
+    e.information.topLeftCorner(n, n) = used;
+  }
+  if (e.IsLandmark()) {
+    std::fill(e.z.begin() + dimension_, e.z.end(), 0.0);
+  } else if (dimension_ == 2) {
     std::fill(e.z.begin() + 3, e.z.end(), 0.0);
   }
+  if (e.kind != EdgeKind::kLandmark || dimension_ == 2) e.offset = 0;
 }
 
 size_t PoseGraph::CountEdges(EdgeKind kind) const {
@@ -78,8 +114,14 @@ size_t PoseGraph::CountFixed() const {
 }
 
 Eigen::MatrixXd PoseGraph::Information(const Edge& e) const {
-  const int n = TangentSize();
+  const int n = ResidualSize(e);
   return e.information.topLeftCorner(n, n);
+}
+
+void RequireNoLandmarks(const PoseGraph& graph, const std::string& what) {
+  if (graph.HasLandmarks())
+    throw std::invalid_argument(what + " does not handle landmarks, and this graph has " +
+                                std::to_string(graph.CountLandmarks()));
 }
 
 SE2 ToSE2(const PoseParams& p) { return SE2(p[0], p[1], p[2]); }
@@ -116,7 +158,7 @@ std::vector<std::vector<std::pair<size_t, size_t>>> Adjacency(const PoseGraph& g
   std::vector<std::vector<std::pair<size_t, size_t>>> adj(graph.vertices().size());
   const auto& edges = graph.edges();
   for (size_t k = 0; k < edges.size(); ++k) {
-    if (edges[k].IsPrior()) continue;
+    if (!edges[k].JoinsPoses()) continue;
     const size_t a = graph.VertexIndex(edges[k].from), b = graph.VertexIndex(edges[k].to);
     adj[a].emplace_back(k, b);
     adj[b].emplace_back(k, a);
@@ -125,6 +167,30 @@ std::vector<std::vector<std::pair<size_t, size_t>>> Adjacency(const PoseGraph& g
 }
 
 }  // namespace
+
+Eigen::Vector3d ObservedPoint(const PoseGraph& graph, const Edge& e, const PoseParams& pose) {
+  if (graph.dimension() == 2) {
+    const Eigen::Vector2d p = ToSE2(pose) * Eigen::Vector2d(e.z[0], e.z[1]);
+    return {p.x(), p.y(), 0.0};
+  }
+  const SE3 sensor = ToSE3(pose) * graph.offset(e.offset);
+  return sensor * Eigen::Vector3d(e.z[0], e.z[1], e.z[2]);
+}
+
+void PlaceLandmarks(PoseGraph& graph) {
+  if (!graph.HasLandmarks()) return;
+  std::vector<bool> placed(graph.vertices().size(), false);
+  for (const Edge& e : graph.edges()) {
+    if (e.kind != EdgeKind::kLandmark) continue;
+    const size_t l = graph.VertexIndex(e.to);
+    if (placed[l]) continue;
+    placed[l] = true;
+    Vertex& v = graph.vertices()[l];
+    if (v.fixed) continue;
+    const Eigen::Vector3d p = ObservedPoint(graph, e, graph.vertex(e.from).x);
+    for (int i = 0; i < graph.dimension(); ++i) v.x[i] = p[i];
+  }
+}
 
 PoseParams ChainMeasurement(const PoseGraph& graph, const Edge& e, const PoseParams& from_pose,
                             bool forward) {
@@ -177,9 +243,11 @@ void ChainAlongSpanningTree(PoseGraph& graph) {
       push_from(w);
     }
   }
+  PlaceLandmarks(graph);
 }
 
-std::vector<std::vector<int64_t>> ConnectedComponents(const PoseGraph& graph) {
+std::vector<std::vector<int64_t>> ConnectedComponents(const PoseGraph& graph,
+                                                      bool through_landmarks) {
   const size_t n = graph.vertices().size();
   std::vector<size_t> parent(n);
   std::iota(parent.begin(), parent.end(), 0);
@@ -188,7 +256,7 @@ std::vector<std::vector<int64_t>> ConnectedComponents(const PoseGraph& graph) {
     return x;
   };
   for (const Edge& e : graph.edges()) {
-    if (e.IsPrior()) continue;
+    if (e.IsPrior() || (!through_landmarks && !e.JoinsPoses())) continue;
     const size_t a = find(graph.VertexIndex(e.from)), b = find(graph.VertexIndex(e.to));
     if (a != b) parent[std::max(a, b)] = std::min(a, b);
   }

@@ -1,14 +1,16 @@
-// The pose graph: vertices (robot poses) and edges (odometry, loop closures,
-// priors) with their measurements and information matrices, and what
-// follows from the graph alone (its connected components, measurements
-// chained along a spanning tree). One graph is either planar (SE2) or
-// spatial (SE3), never both.
+// The pose graph: vertices (robot poses and point landmarks) and edges
+// (odometry, loop closures, priors, landmark observations) with their
+// measurements and information matrices, and what follows from the graph
+// alone (its connected components, measurements chained along a spanning
+// tree). One graph is either planar (SE2, XY points) or spatial (SE3, XYZ
+// points), never both.
 #pragma once
 
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <string>
 #include <type_traits>
 #include <unordered_map>
@@ -19,27 +21,42 @@
 
 namespace cairn {
 
-enum class EdgeKind { kOdometry, kLoopClosure, kPrior };
+// kLandmark: a pose observes a point (from: the pose, to: the landmark);
+// kLandmarkPrior: an absolute measurement of a point.
+enum class EdgeKind { kOdometry, kLoopClosure, kPrior, kLandmark, kLandmarkPrior };
 const char* ToString(EdgeKind kind);
 
 // A pose's parameters, laid out as g2o writes them: (x, y, theta) in 2D,
-// (x, y, z, qx, qy, qz, qw) in 3D. Solvers optimise these arrays in place.
+// (x, y, z, qx, qy, qz, qw) in 3D; a landmark's point is the first 2 or 3.
+// Solvers optimise these arrays in place.
 using PoseParams = std::array<double, 7>;
 
 struct Vertex {
   int64_t id = 0;
   PoseParams x{};
   bool fixed = false;
+  bool landmark = false;  // a point (in the padding after `fixed`: no growth)
 };
 
 struct Edge {
   EdgeKind kind = EdgeKind::kOdometry;
-  int64_t from = 0;  // the constrained vertex of a prior
-  int64_t to = -1;   // unused by a prior
-  PoseParams z{};    // measurement, laid out like a vertex
-  Matrix6d information = Matrix6d::Identity();  // 2D: top-left 3x3, rest zero once added
+  // 3D landmark observations: the PARAMS_SE3OFFSET id of the sensor offset
+  // (PoseGraph::offset). In the padding after `kind`: no growth.
+  int32_t offset = 0;
+  int64_t from = 0;  // the constrained vertex of a prior; the pose of an observation
+  int64_t to = -1;   // unused by a prior; the landmark of an observation
+  PoseParams z{};    // measurement, laid out like a vertex (a point's: its first 2 or 3)
+  // The residual's block, top-left (3x3 or 6x6 for poses, 2x2 or 3x3 for
+  // points); the rest zero once added.
+  Matrix6d information = Matrix6d::Identity();
 
-  bool IsPrior() const { return kind == EdgeKind::kPrior; }
+  // A unary edge (on `from` alone).
+  bool IsPrior() const { return kind == EdgeKind::kPrior || kind == EdgeKind::kLandmarkPrior; }
+  bool IsLandmark() const {
+    return kind == EdgeKind::kLandmark || kind == EdgeKind::kLandmarkPrior;
+  }
+  // Odometry or a loop closure: a relative pose between two poses.
+  bool JoinsPoses() const { return kind == EdgeKind::kOdometry || kind == EdgeKind::kLoopClosure; }
 };
 
 // A line of a file kept as it was, not interpreted (a tag cairn does not
@@ -61,16 +78,32 @@ class PoseGraph {
   int ParameterSize() const { return dimension_ == 2 ? 3 : 7; }
   // Degrees of freedom of one pose: 3 (SE2) or 6 (SE3).
   int TangentSize() const { return dimension_ == 2 ? 3 : 6; }
+  // A vertex's parameter block: a pose's size, or a point's (2 or 3, no
+  // manifold: its tangent size too).
+  int BlockSize(const Vertex& v) const { return v.landmark ? dimension_ : ParameterSize(); }
+  int BlockTangentSize(const Vertex& v) const { return v.landmark ? dimension_ : TangentSize(); }
+  // Rows of an edge's residual: a pose's tangent size, or a point's size.
+  int ResidualSize(const Edge& e) const { return e.IsLandmark() ? dimension_ : TangentSize(); }
 
   // Throws std::invalid_argument on a duplicate id. References to vertices
   // stay valid as the graph grows (solvers keep pointers to the parameters).
   Vertex& AddVertex(int64_t id, const PoseParams& x, bool fixed = false);
   Vertex& AddVertex(int64_t id, const SE2& pose, bool fixed = false);
   Vertex& AddVertex(int64_t id, const SE3& pose, bool fixed = false);
-  // Throws std::invalid_argument when an endpoint is missing, the
-  // information matrix is not symmetric positive definite, or a between-edge
-  // joins a vertex to itself.
+  // A point landmark at p (2D: p.z ignored).
+  Vertex& AddLandmark(int64_t id, const Eigen::Vector3d& p, bool fixed = false);
+  // Throws std::invalid_argument when an endpoint is missing or of the
+  // wrong sort (a pose where the edge needs a point, or the reverse), a 3D
+  // observation's offset is not defined, the information matrix is not
+  // symmetric positive definite, or a between-edge joins a vertex to itself.
   void AddEdge(const Edge& edge);
+
+  // Sensor offsets of 3D landmark observations (g2o's PARAMS_SE3OFFSET), by
+  // id: the observation is made from pose * offset.
+  void SetOffset(int32_t id, const SE3& offset);
+  bool HasOffset(int32_t id) const { return offsets_.count(id) != 0; }
+  const SE3& offset(int32_t id) const { return offsets_.at(id); }
+  const std::map<int32_t, SE3>& offsets() const { return offsets_; }
 
   bool HasVertex(int64_t id) const { return index_.count(id) != 0; }
   // Position of a vertex in vertices(); throws std::out_of_range if absent.
@@ -85,6 +118,8 @@ class PoseGraph {
 
   size_t CountEdges(EdgeKind kind) const;
   size_t CountFixed() const;
+  size_t CountLandmarks() const { return landmarks_; }
+  bool HasLandmarks() const { return landmarks_ != 0; }
 
   // Lines carried through unchanged from the file read, in file order.
   const std::vector<VerbatimLine>& verbatim_lines() const { return verbatim_lines_; }
@@ -99,7 +134,14 @@ class PoseGraph {
   std::unordered_map<int64_t, size_t> index_;
   std::vector<Edge> edges_;
   std::vector<VerbatimLine> verbatim_lines_;
+  size_t landmarks_ = 0;
+  std::map<int32_t, SE3> offsets_;
 };
+
+// For code that treats every vertex as a pose (plots, trajectory errors,
+// outlier rejection, ...): throws std::invalid_argument saying that `what`
+// does not handle landmarks when the graph has any.
+void RequireNoLandmarks(const PoseGraph& graph, const std::string& what);
 
 SE2 ToSE2(const PoseParams& p);
 SE3 ToSE3(const PoseParams& p);
@@ -122,20 +164,34 @@ EdgeKind KindForBetween(int64_t from, int64_t to);
 // True when `info` is symmetric (to a relative 1e-9) and positive definite.
 bool IsSymmetricPositiveDefinite(const Eigen::MatrixXd& info);
 
-// Vertex ids of each connected component (between-edges only), each sorted,
-// components ordered by their lowest id.
-std::vector<std::vector<int64_t>> ConnectedComponents(const PoseGraph& graph);
+// Vertex ids of each connected component (between-edges and landmark
+// observations: poses that see a common landmark are one component), each
+// sorted, components ordered by their lowest id. Without
+// `through_landmarks`, between-edges only (each landmark alone).
+std::vector<std::vector<int64_t>> ConnectedComponents(const PoseGraph& graph,
+                                                      bool through_landmarks = true);
 
 // The pose at one end of between-edge `e`, chained from the pose at the
 // other: e.to's from e.from's pose when `forward`, else e.from's from e.to's.
 PoseParams ChainMeasurement(const PoseGraph& graph, const Edge& e, const PoseParams& from_pose,
                             bool forward);
 
+// The point pose X observes with landmark edge e: X * z in 2D, X * offset *
+// z in 3D.
+Eigen::Vector3d ObservedPoint(const PoseGraph& graph, const Edge& e, const PoseParams& pose);
+
+// Places every landmark that is not fixed at its first observation (in edge
+// order) from the observing pose's current estimate; a landmark no edge
+// observes keeps its estimate. Every initialiser ends with this.
+void PlaceLandmarks(PoseGraph& graph);
+
 // Sets every vertex's estimate by chaining measurements outward along a
 // spanning tree that prefers the most certain edges (largest information
 // trace). Each component starts at its fixed vertex if it has one, else at
-// its lowest id, which keeps its current pose. Priors are not followed.
-// What a file without vertices is placed by (graph_io.h).
+// its lowest id, which keeps its current pose. Priors are not followed; a
+// point cannot place a pose, so poses tied only through landmarks start
+// trees of their own; landmarks then by PlaceLandmarks. What a file without
+// vertices is placed by (graph_io.h).
 void ChainAlongSpanningTree(PoseGraph& graph);
 
 }  // namespace cairn

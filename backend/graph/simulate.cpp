@@ -111,6 +111,63 @@ std::vector<SE3> SphereLaps(const SimulationOptions& o) {
   return poses;
 }
 
+// A point within `radius` of `centre`, uniformly in the disc (2D) or ball.
+Eigen::Vector3d NearPoint(Noise& noise, const Eigen::Vector3d& centre, double radius, int dim) {
+  for (;;) {
+    Eigen::Vector3d d(noise.Uniform(-1, 1), noise.Uniform(-1, 1), dim == 3 ? noise.Uniform(-1, 1) : 0);
+    if (d.squaredNorm() <= 1) return centre + radius * d;
+  }
+}
+
+Eigen::Vector3d PoseTranslation(const PoseGraph& g, const Vertex& v) {
+  return g.dimension() == 2 ? Eigen::Vector3d(v.x[0], v.x[1], 0) : Eigen::Vector3d(v.x[0], v.x[1], v.x[2]);
+}
+
+// Landmarks after every pose edge, so that the poses' part of a simulation
+// does not depend on them: the truth's points, each pose's observations
+// within range, and the noisy graph's points placed from their first.
+void AddLandmarks(Simulation& sim, Noise& noise, const SimulationOptions& o) {
+  const int dim = o.dimension;
+  const double range = o.landmark_range > 0 ? o.landmark_range : (dim == 2 ? 3.0 : 10.0);
+  const int64_t first = o.poses;
+  if (dim == 3) {
+    sim.truth.SetOffset(0, SE3());
+    sim.noisy.SetOffset(0, SE3());
+  }
+  std::vector<Eigen::Vector3d> points;
+  for (int k = 0; k < o.landmarks; ++k) {
+    const Vertex& near = sim.truth.vertices()[noise.Index(static_cast<size_t>(o.poses))];
+    points.push_back(NearPoint(noise, PoseTranslation(sim.truth, near), range / 2, dim));
+    sim.truth.AddLandmark(first + k, points.back());
+    sim.noisy.AddLandmark(first + k, Eigen::Vector3d::Zero());
+  }
+  const double st = std::max(o.translation_noise, 1e-4);
+  Matrix6d info = Matrix6d::Zero();
+  info.diagonal().head(dim).setConstant(1 / (st * st));
+  for (int64_t i = 0; i < o.poses; ++i) {
+    const Vertex& pose = sim.truth.vertex(i);
+    for (int k = 0; k < o.landmarks; ++k) {
+      if ((points[k] - PoseTranslation(sim.truth, pose)).norm() > range) continue;
+      Edge e;
+      e.kind = EdgeKind::kLandmark;
+      e.from = i;
+      e.to = first + k;
+      e.information = info;
+      Eigen::Vector3d z;
+      if (dim == 2) {
+        const Eigen::Vector2d local = ToSE2(pose.x).Inverse() * points[k].head<2>();
+        z << local, 0;
+      } else {
+        z = ToSE3(pose.x).Inverse() * points[k];
+      }
+      for (int a = 0; a < dim; ++a) e.z[a] = z[a] + noise.Gauss(o.translation_noise);
+      sim.noisy.AddEdge(e);
+      sim.truth.AddEdge(e);
+    }
+  }
+  PlaceLandmarks(sim.noisy);
+}
+
 }  // namespace
 
 
@@ -125,6 +182,11 @@ Simulation Simulate(const SimulationOptions& o) {
   if (o.outliers < 0) throw std::invalid_argument("the number of outliers must be non-negative");
   if (o.dimension == 3 && (o.nodes_per_lap < 3 || o.radius <= 0))
     throw std::invalid_argument("a sphere needs at least 3 nodes per lap and a positive radius");
+  if (o.landmarks < 0 || o.landmark_range < 0)
+    throw std::invalid_argument("the landmarks and their range must be non-negative");
+  // Every pose is tested against every landmark.
+  if (static_cast<double>(o.landmarks) * o.poses > 1e8)
+    throw std::invalid_argument("at most 1e8 pose-landmark pairs (poses times landmarks)");
 
   Simulation sim{PoseGraph(o.dimension), PoseGraph(o.dimension), {}};
   Noise noise(o);
@@ -185,6 +247,7 @@ Simulation Simulate(const SimulationOptions& o) {
     sim.truth.AddEdge(e);
     sim.outliers.emplace_back(e.from, e.to);
   }
+  if (o.landmarks > 0) AddLandmarks(sim, noise, o);
   return sim;
 }
 

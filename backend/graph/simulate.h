@@ -1,5 +1,6 @@
 // A simulator of noisy pose graphs with known ground truth, for tests, demos
-// and benchmarks: a 2D Manhattan-world random walk and a 3D sphere.
+// and benchmarks: a 2D Manhattan-world random walk and a 3D sphere, with
+// point landmarks observed within a range if asked for.
 #pragma once
 
 #include <cstdint>
@@ -21,6 +22,12 @@ struct SimulationOptions {
   int outliers = 0;                 // wrong loop closures added at random
   int nodes_per_lap = 50;           // 3D: poses per circle of the sphere
   double radius = 50.0;             // 3D: radius of the sphere, m
+  // Point landmarks, each placed within half the range of a random true
+  // pose (so at least that pose sees it); every pose observes every landmark
+  // within `landmark_range` (0: 3 m in 2D, 10 m in 3D) as a point in its own
+  // frame, with translation_noise per axis. Ids follow the poses'.
+  int landmarks = 0;
+  double landmark_range = 0;
   uint64_t seed = 1;
 };
 

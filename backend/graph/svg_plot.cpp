@@ -72,7 +72,7 @@ void Path(std::ostream& out, const PoseGraph& g, const Mapping& m, bool loops,
   std::string d;
   char buf[64];
   for (const Edge& e : g.edges()) {
-    if (e.IsPrior() || (e.kind == EdgeKind::kLoopClosure) != loops) continue;
+    if (!e.JoinsPoses() || (e.kind == EdgeKind::kLoopClosure) != loops) continue;
     double ax, ay, bx, by;
     m.Apply(g.vertex(e.from).x, &ax, &ay);
     m.Apply(g.vertex(e.to).x, &bx, &by);
@@ -84,6 +84,22 @@ void Path(std::ostream& out, const PoseGraph& g, const Mapping& m, bool loops,
   out << "<path fill=\"none\" stroke=\"" << color << "\" stroke-width=\"" << width
       << "\" stroke-opacity=\"" << opacity << "\" stroke-linecap=\"round\" d=\"" << d
       << "\"/>\n";
+}
+
+// Landmarks as small dots in the graph's colour.
+void Landmarks(std::ostream& out, const PoseGraph& g, const Mapping& m, const std::string& color) {
+  if (!g.HasLandmarks()) return;
+  out << "<g fill=\"" << color << "\" fill-opacity=\"0.8\">\n";
+  char buf[96];
+  for (const Vertex& v : g.vertices()) {
+    if (!v.landmark) continue;
+    double x, y;
+    m.Apply(v.x, &x, &y);
+    if (!std::isfinite(x + y)) continue;
+    std::snprintf(buf, sizeof buf, "<circle cx=\"%.1f\" cy=\"%.1f\" r=\"2\"/>\n", x, y);
+    out << buf;
+  }
+  out << "</g>\n";
 }
 
 // Each trajectory as one polyline (non-finite poses left out), then their
@@ -147,6 +163,7 @@ void WriteSvgPlot(std::ostream& out, const std::vector<PlotPanel>& panels,
       // Loop closures first, underneath the trajectory.
       if (p.loop_closures) Path(out, *p.graph, m, true, p.loop_color, 0.5, 0.35);
       Path(out, *p.graph, m, false, p.color, 1.0, 0.9);
+      Landmarks(out, *p.graph, m, p.color);
     }
     Trajectories(out, p, m, left, top);
   }

@@ -1,7 +1,8 @@
 // Trajectory plots as standalone SVG, written by hand (no dependency), for
 // the back-end and the front-end alike: panels side by side, each scaled to
 // its own extent so that a wildly wrong start does not squash the optimised
-// result. A panel draws a graph (its odometry and loop closures) and/or
+// result. A panel draws a graph (its odometry and loop closures, landmarks
+// as dots) and/or
 // labelled pose sequences overlaid in one frame (dead reckoning beside the
 // optimised path). 3D graphs are drawn as their x-y projection.
 #pragma once

@@ -13,6 +13,7 @@ namespace cairn {
 std::vector<VertexPair> AddWrongLoopClosures(PoseGraph& graph, int count, uint64_t seed) {
   if (count < 0) throw std::invalid_argument("the number of outliers must be non-negative");
   if (count == 0) return {};
+  RequireNoLandmarks(graph, "adding wrong loop closures");  // it picks vertices as poses
   const auto& vertices = graph.vertices();
   if (vertices.size() < 3)
     throw std::invalid_argument("a graph of fewer than 3 vertices has no room for loop closures");

@@ -165,6 +165,7 @@ class NormalEquations {
 }  // namespace
 
 std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vector<size_t>& edges) {
+  RequireNoLandmarks(graph, "the deleted-residual test");
   std::vector<double> out(edges.size(), std::numeric_limits<double>::quiet_NaN());
   const NormalEquations normal(graph);
   if (normal.size() == 0) return out;
@@ -196,6 +197,7 @@ std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vecto
 
 std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::vector<Edge>& candidates) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
+  RequireNoLandmarks(graph, "the innovation test");
   std::vector<InnovationStat> out(candidates.size(), InnovationStat{nan, nan});
   const NormalEquations normal(graph);
   const int n = normal.size(), d = graph.TangentSize();

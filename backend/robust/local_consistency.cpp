@@ -122,6 +122,7 @@ std::vector<int> LocalSupport(const PoseGraph& graph, int window, double thresho
 std::vector<int> LocalLoopClosureSupport(const PoseGraph& graph, int window,
                                          double threshold_chi2) {
   if (window < 1) throw std::invalid_argument("the consistency window must be at least 1");
+  RequireNoLandmarks(graph, "the local consistency check");
   return graph.dimension() == 2 ? LocalSupport<SE2>(graph, window, threshold_chi2)
                                 : LocalSupport<SE3>(graph, window, threshold_chi2);
 }

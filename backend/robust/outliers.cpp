@@ -377,6 +377,8 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
                                               const OutlierRejectionOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) throw std::invalid_argument(why);
+  // Its working graphs are rebuilt from poses and between-edges.
+  RequireNoLandmarks(graph, "outlier rejection");
   const double initial_chi2 = Chi2(graph);
   RejectionState s(graph, solve, options);
   for (size_t k = 0; k < graph.edges().size(); ++k)

@@ -88,9 +88,8 @@ ceres::SparseLinearAlgebraLibraryType SparseLibraryFor(const PoseGraph& graph,
 // small, and a fixed floor would then damp every step.
 double LargestInformation(const PoseGraph& graph) {
   double largest = 0;
-  const int t = graph.TangentSize();
   for (const Edge& e : graph.edges())
-    largest = std::max(largest, e.information.diagonal().head(t).maxCoeff());
+    largest = std::max(largest, e.information.diagonal().head(graph.ResidualSize(e)).maxCoeff());
   return largest;
 }
 
@@ -173,15 +172,18 @@ CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_cl
   // The same parameters and gauge as the Gauss-Newton path (graph_factors.h).
   const std::vector<bool> touched = TouchedVertices(graph);
   const std::vector<bool> held = HeldConstant(graph);
-  const int size = graph.ParameterSize();
   for (size_t i = 0; i < graph.vertices().size(); ++i) {
     if (!touched[i]) continue;
     Vertex& v = graph.vertices()[i];
-    if (size == 7) {
-      // The factors invert quaternions by conjugation, right only for unit ones.
-      Eigen::Map<Eigen::Quaterniond>(v.x.data() + 3).normalize();
+    if (v.landmark) {
+      problem_->AddParameterBlock(v.x.data(), graph.BlockSize(v));  // a point: no manifold
+    } else {
+      if (graph.dimension() == 3) {
+        // The factors invert quaternions by conjugation, right only for unit ones.
+        Eigen::Map<Eigen::Quaterniond>(v.x.data() + 3).normalize();
+      }
+      problem_->AddParameterBlock(v.x.data(), graph.ParameterSize(), manifold_.get());
     }
-    problem_->AddParameterBlock(v.x.data(), size, manifold_.get());
     if (held[i]) {
       problem_->SetParameterBlockConstant(v.x.data());
       if (!v.fixed && !gauge_) gauge_ = v.id;  // the first component's

@@ -165,6 +165,49 @@ constexpr double kRelativeDampingFloor = 1e-16;
 // 6, 7, 6), where Eigen unrolls them; any other size takes the general path.
 // On city10000 the general path spent more in these products than in the
 // factors' autodiff.
+// Landmark observations (2D: 2 residuals on a pose and a 2-point; 3D: 3 on
+// a pose and a 3-point) get fixed sizes too, tried after the poses' so that
+// a pose graph's products take the branches they always took.
+template <int M, int S, int T>
+void LocalJacobianFixed(const double* ja, const double* plus, double* jl) {
+  Eigen::Map<Eigen::Matrix<double, M, T, Eigen::RowMajor>>(jl).noalias() =
+      Eigen::Map<const Eigen::Matrix<double, M, S, Eigen::RowMajor>>(ja) *
+      Eigen::Map<const Eigen::Matrix<double, S, T, Eigen::RowMajor>>(plus);
+}
+
+template <int M, int T>
+void AddGradientFixed(const double* jp, const double* r, double* g) {
+  Eigen::Map<Eigen::Matrix<double, T, 1>>(g).noalias() +=
+      Eigen::Map<const Eigen::Matrix<double, M, T, Eigen::RowMajor>>(jp).transpose() *
+      Eigen::Map<const Eigen::Matrix<double, M, 1>>(r);
+}
+
+template <int M, int R, int C>
+void AddOuterFixed(const double* jp, const double* jq, double* acc, int ld) {
+  Eigen::Map<Eigen::Matrix<double, R, C>, 0, Eigen::OuterStride<>>(acc, R, C,
+                                                                   Eigen::OuterStride<>(ld))
+      .noalias() += Eigen::Map<const Eigen::Matrix<double, M, R, Eigen::RowMajor>>(jp).transpose() *
+                    Eigen::Map<const Eigen::Matrix<double, M, C, Eigen::RowMajor>>(jq);
+}
+
+// The landmark shapes of AddOuter: m residual rows, blocks of a pose's
+// tangent size `pose` or a point's `m`. False for any other shape.
+template <int M, int P>
+bool AddLandmarkOuter(const double* jp, const double* jq, double* acc, int ld, int tr, int tc) {
+  if (tr == P && tc == P) {
+    AddOuterFixed<M, P, P>(jp, jq, acc, ld);
+  } else if (tr == P && tc == M) {
+    AddOuterFixed<M, P, M>(jp, jq, acc, ld);
+  } else if (tr == M && tc == P) {
+    AddOuterFixed<M, M, P>(jp, jq, acc, ld);
+  } else if (tr == M && tc == M) {
+    AddOuterFixed<M, M, M>(jp, jq, acc, ld);
+  } else {
+    return false;
+  }
+  return true;
+}
+
 // jl = ja * plus: the local (tangent) Jacobian, m x t, from the ambient one.
 void LocalJacobian(const double* ja, const double* plus, double* jl, int m, int size, int t) {
   if (m == 3 && size == 3 && t == 3) {
@@ -174,6 +217,10 @@ void LocalJacobian(const double* ja, const double* plus, double* jl, int m, int 
     Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(jl).noalias() =
         Eigen::Map<const Eigen::Matrix<double, 6, 7, Eigen::RowMajor>>(ja) *
         Eigen::Map<const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>>(plus);
+  } else if (m == 2 && size == 3 && t == 3) {
+    LocalJacobianFixed<2, 3, 3>(ja, plus, jl);
+  } else if (m == 3 && size == 7 && t == 6) {
+    LocalJacobianFixed<3, 7, 6>(ja, plus, jl);
   } else {
     Eigen::Map<RowMatrix>(jl, m, t).noalias() =
         Eigen::Map<const RowMatrix>(ja, m, size) * Eigen::Map<const RowMatrix>(plus, size, t);
@@ -190,6 +237,12 @@ void AddGradient(const double* jp, const double* r, double* g, int m, int t) {
     Eigen::Map<Eigen::Matrix<double, 6, 1>>(g).noalias() +=
         Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(jp).transpose() *
         Eigen::Map<const Eigen::Matrix<double, 6, 1>>(r);
+  } else if (m == 2 && t == 3) {
+    AddGradientFixed<2, 3>(jp, r, g);
+  } else if (m == 2 && t == 2) {
+    AddGradientFixed<2, 2>(jp, r, g);
+  } else if (m == 3 && t == 6) {
+    AddGradientFixed<3, 6>(jp, r, g);
   } else {
     Eigen::Map<Eigen::VectorXd>(g, t).noalias() +=
         Eigen::Map<const RowMatrix>(jp, m, t).transpose() * Eigen::Map<const Eigen::VectorXd>(r, m);
@@ -207,7 +260,8 @@ void AddOuter(const double* jp, const double* jq, double* acc, int ld, int m, in
     Eigen::Map<Eigen::Matrix<double, 6, 6>, 0, Eigen::OuterStride<>>(acc, 6, 6,
                                                                      Eigen::OuterStride<>(ld))
         .noalias() += Eigen::Map<const J>(jp).transpose() * Eigen::Map<const J>(jq);
-  } else {
+  } else if (!(m == 2 && AddLandmarkOuter<2, 3>(jp, jq, acc, ld, tr, tc)) &&
+             !(m == 3 && AddLandmarkOuter<3, 6>(jp, jq, acc, ld, tr, tc))) {
     Eigen::Map<Eigen::MatrixXd, 0, Eigen::OuterStride<>>(acc, tr, tc, Eigen::OuterStride<>(ld))
         .noalias() += Eigen::Map<const RowMatrix>(jp, m, tr).transpose() *
                       Eigen::Map<const RowMatrix>(jq, m, tc);

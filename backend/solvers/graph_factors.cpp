@@ -4,12 +4,32 @@
 
 #include "cairn/graph/pose_graph.h"
 
+#include "cairn/factors/landmark_factors.h"
 #include "cairn/factors/se2_factors.h"
 #include "cairn/factors/se3_factors.h"
 
 namespace cairn {
 
+namespace {
+
+ceres::CostFunction* MakeLandmarkCost(const PoseGraph& graph, const Edge& edge) {
+  if (graph.dimension() == 2) {
+    const Eigen::Vector2d z(edge.z[0], edge.z[1]);
+    const Eigen::Matrix2d info = edge.information.topLeftCorner<2, 2>();
+    return edge.IsPrior() ? factors::PointPriorFactor<2>::Create(z, info)
+                          : factors::SE2PointFactor::Create(z, info);
+  }
+  const Eigen::Vector3d z(edge.z[0], edge.z[1], edge.z[2]);
+  const Eigen::Matrix3d info = edge.information.topLeftCorner<3, 3>();
+  if (edge.IsPrior()) return factors::PointPriorFactor<3>::Create(z, info);
+  const SE3& o = graph.offset(edge.offset);
+  return factors::SE3PointFactor::Create(z, o.rotation(), o.translation(), info);
+}
+
+}  // namespace
+
 ceres::CostFunction* MakeCostFunction(const PoseGraph& graph, const Edge& edge) {
+  if (edge.IsLandmark()) return MakeLandmarkCost(graph, edge);
   if (graph.dimension() == 2) {
     const Eigen::Vector3d z(edge.z[0], edge.z[1], edge.z[2]);
     const Eigen::Matrix3d info = edge.information.topLeftCorner<3, 3>();
@@ -58,17 +78,22 @@ std::vector<bool> HeldConstant(const PoseGraph& graph) {
   const auto& vertices = graph.vertices();
   const std::vector<bool> touched = TouchedVertices(graph);
   std::vector<bool> held(vertices.size(), false);
-  std::vector<bool> anchored(vertices.size(), false);  // by a prior
-  for (size_t i = 0; i < vertices.size(); ++i) held[i] = touched[i] && vertices[i].fixed;
+  // A fixed pose or a prior on a pose anchors its component; a point does
+  // not (the rotation about it stays free), so the gauge is always a pose.
+  std::vector<bool> anchors(vertices.size(), false);
+  for (size_t i = 0; i < vertices.size(); ++i) {
+    held[i] = touched[i] && vertices[i].fixed;
+    anchors[i] = held[i] && !vertices[i].landmark;
+  }
   for (const Edge& e : graph.edges())
-    if (e.IsPrior()) anchored[graph.VertexIndex(e.from)] = true;
+    if (e.kind == EdgeKind::kPrior) anchors[graph.VertexIndex(e.from)] = true;
   for (const std::vector<int64_t>& component : ConnectedComponents(graph)) {
     bool needs_gauge = true;
-    long lowest = -1;  // components come sorted: the first touched is the lowest
+    long lowest = -1;  // components come sorted: the first touched pose is the lowest
     for (int64_t id : component) {
       const size_t i = graph.VertexIndex(id);
-      if (held[i] || anchored[i]) needs_gauge = false;
-      if (lowest < 0 && touched[i]) lowest = static_cast<long>(i);
+      if (anchors[i]) needs_gauge = false;
+      if (lowest < 0 && touched[i] && !vertices[i].landmark) lowest = static_cast<long>(i);
     }
     if (needs_gauge && lowest >= 0) held[lowest] = true;
   }
@@ -76,9 +101,8 @@ std::vector<bool> HeldConstant(const PoseGraph& graph) {
 }
 
 std::optional<int64_t> FirstNonFiniteVertex(const PoseGraph& graph) {
-  const int size = graph.ParameterSize();
   for (const Vertex& v : graph.vertices())
-    for (int k = 0; k < size; ++k)
+    for (int k = 0; k < graph.BlockSize(v); ++k)
       if (!std::isfinite(v.x[k])) return v.id;
   return std::nullopt;
 }

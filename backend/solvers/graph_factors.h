@@ -54,10 +54,11 @@ class DcsLoss final : public ceres::LossFunction {
 std::vector<bool> TouchedVertices(const PoseGraph& graph);
 
 // Per vertex (in vertices() order): held constant during optimisation. FIX
-// vertices are held; in each connected component that no FIX vertex and no
-// prior anchors, the lowest-id vertex that an edge touches is held as that
-// component's gauge, so that a graph in several pieces never leaves the
-// normal equations singular.
+// vertices are held; in each connected component (landmark observations
+// join it) that no fixed pose and no pose prior anchors, the lowest-id pose
+// that an edge touches is held as that component's gauge, so that a graph
+// in several pieces never leaves the normal equations singular. A fixed
+// landmark or a point prior does not anchor: the rotation stays free.
 std::vector<bool> HeldConstant(const PoseGraph& graph);
 
 // The id of the first vertex whose estimate holds a NaN or infinity: both

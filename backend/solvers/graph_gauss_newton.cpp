@@ -29,6 +29,11 @@ SolveResult SolveGaussNewton(PoseGraph& graph, const GaussNewtonOptions& options
   const std::vector<bool> held = HeldConstant(graph);
   auto& vertices = graph.vertices();
   for (size_t i = 0; i < vertices.size(); ++i) {
+    if (vertices[i].landmark) {
+      // A point: its coordinates, no manifold (the block H gets is 2x2 or 3x3).
+      problem.AddParameterBlock(vertices[i].x.data(), graph.BlockSize(vertices[i]));
+      continue;
+    }
     if (graph.dimension() == 3) {
       // The factors invert quaternions by conjugation, right only for unit
       // ones; normalised as on the Ceres path so both start alike.

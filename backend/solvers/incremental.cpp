@@ -56,6 +56,9 @@ void IncrementalOptimizer::AddPose(int64_t id, const SE3& x, bool fixed) {
   if (graph_.dimension() != 3) throw std::invalid_argument("an SE3 pose in a 2D graph");
   graph_.AddVertex(id, x, fixed);
 }
+void IncrementalOptimizer::AddLandmark(int64_t id, const Eigen::Vector3d& p, bool fixed) {
+  graph_.AddLandmark(id, p, fixed);
+}
 void IncrementalOptimizer::AddOdometry(int64_t from, int64_t to, const SE2& z,
                                        const Eigen::Matrix3d& information) {
   AddEdge(MakeEdge(EdgeKind::kOdometry, from, to, ToParams(z), information));
@@ -83,7 +86,8 @@ void IncrementalOptimizer::AddEdge(const Edge& edge) { graph_.AddEdge(edge); }
 
 void IncrementalOptimizer::PrepareVertex(Vertex& v) {
   // The factors invert quaternions by conjugation, right only for unit ones.
-  if (graph_.dimension() == 3) Eigen::Map<Eigen::Quaterniond>(v.x.data() + 3).normalize();
+  if (graph_.dimension() == 3 && !v.landmark)
+    Eigen::Map<Eigen::Quaterniond>(v.x.data() + 3).normalize();
 }
 
 void IncrementalOptimizer::SyncCeres() {
@@ -101,9 +105,9 @@ void IncrementalOptimizer::SyncCeres() {
     if (!e.IsPrior()) blocks.push_back(graph_.vertex(e.to).x.data());
     for (double* b : blocks) {
       if (ceres_->HasParameterBlock(b)) continue;
-      PrepareVertex(graph_.vertex(e.from).x.data() == b ? graph_.vertex(e.from)
-                                                        : graph_.vertex(e.to));
-      ceres_->AddParameterBlock(b, graph_.ParameterSize(), manifold_.get());
+      Vertex& v = graph_.vertex(e.from).x.data() == b ? graph_.vertex(e.from) : graph_.vertex(e.to);
+      PrepareVertex(v);
+      ceres_->AddParameterBlock(b, graph_.BlockSize(v), v.landmark ? nullptr : manifold_.get());
     }
     ceres::LossFunction* loss =
         e.kind == EdgeKind::kLoopClosure ? ceres_loss_.get() : nullptr;
@@ -134,7 +138,7 @@ void IncrementalOptimizer::SyncGaussNewton() {
       Vertex& v = graph_.vertex(id);
       // Re-adding a known block only re-sets its manifold: cheap, no lookup needed.
       PrepareVertex(v);
-      gn_->AddParameterBlock(v.x.data(), graph_.ParameterSize(), manifold_.get());
+      gn_->AddParameterBlock(v.x.data(), graph_.BlockSize(v), v.landmark ? nullptr : manifold_.get());
       blocks.push_back(v.x.data());
     }
     ceres::LossFunction* loss = e.kind == EdgeKind::kLoopClosure && gn_loss_

@@ -1,5 +1,5 @@
-// Incremental use as a robot runs: poses, odometry, loop closures and priors
-// are added one at a time and the graph is optimised when asked, warm-started
+// Incremental use as a robot runs: poses, odometry, loop closures, priors
+// and point landmarks with their observations are added one at a time and the graph is optimised when asked, warm-started
 // from the last solution. Both solvers keep their problem between calls and
 // take in only what was added: Ceres's problem gains the new parameter and
 // residual blocks; the Gauss-Newton problem keeps its cost functions and its
@@ -56,6 +56,10 @@ class IncrementalOptimizer {
   // odometry. Throws std::invalid_argument on a duplicate id.
   void AddPose(int64_t id, const SE2& x, bool fixed = false);
   void AddPose(int64_t id, const SE3& x, bool fixed = false);
+  // A point landmark at p (2D: p.z ignored); observed through AddEdge with
+  // EdgeKind::kLandmark (3D: an offset from SetOffset).
+  void AddLandmark(int64_t id, const Eigen::Vector3d& p, bool fixed = false);
+  void SetOffset(int32_t id, const SE3& offset) { graph_.SetOffset(id, offset); }
   // Measurements of `to` seen from `from`, with their information matrix
   // (3x3 in 2D, 6x6 in 3D, in g2o's order). Throws std::invalid_argument as
   // PoseGraph::AddEdge does.

@@ -66,21 +66,21 @@ TEST(GraphHygiene, CoordinatesBeyondTheSaneRangeAreErrors) {
 }
 
 TEST(GraphHygiene, AnUnknownTagIsAnErrorNamingItsLineAndTag) {
-  const std::string text = "VERTEX_SE2 0 0 0 0\nVERTEX_XY 7 1 2\nVERTEX_SE2 1 1 0 0\n";
-  ExpectError(text, 2, "unknown tag 'VERTEX_XY'");
+  const std::string text = "VERTEX_SE2 0 0 0 0\nVERTEX_LINE2D 7 1 2\nVERTEX_SE2 1 1 0 0\n";
+  ExpectError(text, 2, "unknown tag 'VERTEX_LINE2D'");
   ReadOptions keep_nothing;  // the default options: the same answer
-  ExpectError(text, 2, "unknown tag 'VERTEX_XY'", keep_nothing);
+  ExpectError(text, 2, "unknown tag 'VERTEX_LINE2D'", keep_nothing);
 }
 
 TEST(GraphHygiene, KeptUnknownLinesRoundTripInPlace) {
   const std::string text =
       "TAG_BEFORE_ALL 1\n"
       "VERTEX_SE2 0 0 0 0\n"
-      "VERTEX_XY 7 1 2   # spacing and comment kept\n"
+      "VERTEX_LINE2D 7 1 2   # spacing and comment kept\n"
       "VERTEX_SE2 1 1 0 0\n"
       "AFTER_VERTICES x\n"
       "EDGE_SE2 0 1 1 0 0 100 0 0 100 0 100\n"
-      "EDGE_SE2_XY 0 7 1 2 1 0 1\n"
+      "EDGE_SE2_LINE2D 0 7 1 2 1 0 1\n"
       "EDGE_SE2 1 0 -1 0 0 100 0 0 100 0 100\n"
       "AT_THE_END\n";
   ReadOptions keep;

@@ -220,6 +220,8 @@ TEST(WriteToro, RefusesWhatTorosFormatCannotHold) {
   const PoseGraph kept = Parse("VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nROBOTLASER1 1 2\n"
                                "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n", keep);
   EXPECT_NE(ToroRefusal(kept).find("verbatim"), std::string::npos);
+  const PoseGraph landmarks = Parse("VERTEX_SE2 0 0 0 0\nVERTEX_XY 5 1 2\nEDGE_SE2_XY 0 5 1 2 1 0 1\n");
+  EXPECT_NE(ToroRefusal(landmarks).find("no landmarks (1 here)"), std::string::npos);
   EXPECT_EQ(ToroRefusal(Parse("VERTEX2 0 0 0 0\n")), "");
 }
 

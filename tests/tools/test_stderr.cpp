@@ -98,14 +98,14 @@ TEST(ToolStderr, VerboseIsAcceptedByEveryCommand) {
 
 TEST(ToolStderr, UnknownTagsAreRefusedOrCarriedThrough) {
   const std::string text =
-      "VERTEX_SE2 0 0 0 0\nVERTEX_XY 7 1 2\nVERTEX_SE2 1 1 0 0\n"
-      "EDGE_SE2 0 1 1 0 0 100 0 0 100 0 100\nEDGE_SE2_XY 0 7 1 2 1 0 1\n";
+      "VERTEX_SE2 0 0 0 0\nVERTEX_LINE2D 7 1 2\nVERTEX_SE2 1 1 0 0\n"
+      "EDGE_SE2 0 1 1 0 0 100 0 0 100 0 100\nEDGE_SE2_LINE2D 0 7 1 2 1 0 1\n";
   const std::string in = WriteTemp("u.g2o", text);
   const std::string out = testing::TempDir() + "/u_out.g2o";
   int status = 0;
   std::string err = Stderr("optimize " + in + " -o " + out + " --quiet", &status);
   EXPECT_EQ(status, 1);
-  EXPECT_EQ(err.rfind("cairn: " + in + ":2: unknown tag 'VERTEX_XY'", 0), 0u) << err;
+  EXPECT_EQ(err.rfind("cairn: " + in + ":2: unknown tag 'VERTEX_LINE2D'", 0), 0u) << err;
   // --strict is still accepted, and still refuses.
   err = Stderr("info --strict " + in, &status);
   EXPECT_EQ(status, 1);

@@ -1,0 +1,13 @@
+// One translation unit per factor: autodiff instantiation is slow to compile.
+#include <ceres/autodiff_cost_function.h>
+
+#include "cairn/factors/landmark_factors.h"
+
+namespace cairn::factors {
+
+ceres::CostFunction* SE2PointFactor::Create(const Eigen::Vector2d& z, const Eigen::Matrix2d& info) {
+  return new ceres::AutoDiffCostFunction<SE2PointFactor, 2, 3, 2>(
+      new SE2PointFactor(z, SqrtInformation<2>(info)));
+}
+
+}  // namespace cairn::factors

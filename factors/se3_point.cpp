@@ -1,0 +1,16 @@
+// One translation unit per factor: autodiff instantiation is slow to compile.
+#include <ceres/autodiff_cost_function.h>
+
+#include "cairn/factors/landmark_factors.h"
+
+namespace cairn::factors {
+
+ceres::CostFunction* SE3PointFactor::Create(const Eigen::Vector3d& z,
+                                            const Eigen::Quaterniond& q_offset,
+                                            const Eigen::Vector3d& t_offset,
+                                            const Eigen::Matrix3d& info) {
+  return new ceres::AutoDiffCostFunction<SE3PointFactor, 3, 7, 3>(
+      new SE3PointFactor(z, q_offset.normalized(), t_offset, SqrtInformation<3>(info)));
+}
+
+}  // namespace cairn::factors

@@ -15,6 +15,7 @@
 #include "cairn/solvers/solve_result.h"
 #include "cairn/graph/svg_plot.h"
 #include "tools/args.h"
+#include "tools/read_input.h"
 #include "tools/command.h"
 #include "tools/json.h"
 #include "tools/outputs.h"
@@ -284,6 +285,7 @@ std::string ReportJson(const OptimizeArgs& a, const OptimizePlan& p, const PoseG
       j["rejected_loop_closures"].push_back({pair.first, pair.second});
   }
   for (auto& [key, value] : report.items()) j[key] = std::move(value);
+  PutRepairs(j, graph);
   if (!covariances.empty()) {
     Json cov = Json::object();
     for (size_t k = 0; k < p.covariance_of.size(); ++k)
@@ -322,11 +324,9 @@ int RunOptimize(int argc, char** argv) {
   CommandOutputs outputs;
   DeclareFiles(a, outputs);
 
-  ReadOptions read_options;
-  read_options.keep_unknown = Globals().keep_unknown;
   Timings t;
   const auto read_start = std::chrono::steady_clock::now();
-  PoseGraph graph = ReadGraph(a.in, read_options);
+  PoseGraph graph = ReadInputGraph(a.in);
   t.read_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
   // Only copied when asked for: the "before" panel of the plot, the file's
   // own estimate whatever the initialisation.

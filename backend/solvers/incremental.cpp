@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "cairn/graph/chi2.h"
+#include "cairn/solvers/determinacy.h"
 #include "cairn/solvers/graph_factors.h"
 #include "cairn/linear/serial_scope.h"
 #include "cairn/factors/pose_manifold.h"

@@ -2,9 +2,12 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 
 #include "cairn/factors/pose_manifold.h"
@@ -17,6 +20,12 @@ namespace {
 // nothing constrains. Exact freedoms come out as zero or rounding; the
 // loosest determined figures seen on the shared files are far above.
 constexpr double kFreeRatio = 1e-12;
+// FreeTogether's: the diagonal added to keep the factorisation going, the
+// relative pivot below which a coordinate is looked at, and the weight of
+// a direction (relative to the diagonal) below which it is free.
+constexpr double kRegularisation = 1e-14;
+constexpr double kCandidatePivot = 1e-9;
+constexpr double kFreeWeight = 1e-14;
 
 int RotationSize(int dimension) { return dimension == 2 ? 1 : 3; }
 
@@ -95,6 +104,129 @@ void PartialGauge(const PoseGraph& graph, const ComponentPriors& cp, GraphGauge*
                         " of the whole component is not fixed by its priors (and no vertex is FIX)";
 }
 
+// The normal equations J^T J of the whitened residuals at the estimate, in
+// the tangent coordinates of the poses not held (a held rotation's left
+// out): the diagonal blocks per vertex and the whole sparse matrix.
+struct NormalEquations {
+  std::vector<Eigen::MatrixXd> diagonal;  // per vertex, empty if untouched
+  std::vector<int> offset;                // per vertex, -1 if held or untouched
+  std::vector<int> size;
+  Eigen::SparseMatrix<double> h;
+};
+
+NormalEquations Assemble(const PoseGraph& graph, const GraphGauge& gauge) {
+  const auto manifold =
+      graph.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
+  const int d = graph.TangentSize(), t = d - RotationSize(graph.dimension());
+  const size_t n = graph.vertices().size();
+  NormalEquations ne;
+  ne.diagonal.resize(n);
+  ne.offset.assign(n, -1);
+  ne.size.assign(n, 0);
+  const std::vector<bool> touched = TouchedVertices(graph);
+  int total = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!touched[i] || gauge.held[i]) continue;
+    ne.offset[i] = total;
+    ne.size[i] = gauge.rotation_held[i] ? t : d;
+    total += ne.size[i];
+  }
+  std::vector<Eigen::Triplet<double>> entries;
+  for (const Edge& e : graph.edges()) {
+    const LinearizedEdge lin = LinearizeEdge(graph, e, *manifold);
+    const size_t ends[2] = {graph.VertexIndex(e.from), e.IsPrior() ? 0 : graph.VertexIndex(e.to)};
+    for (size_t a = 0; a < lin.jacobians.size(); ++a) {
+      Eigen::MatrixXd& block = ne.diagonal[ends[a]];
+      if (block.size() == 0) block = Eigen::MatrixXd::Zero(d, d);
+      block += lin.jacobians[a].transpose() * lin.jacobians[a];
+      for (size_t b = 0; b < lin.jacobians.size(); ++b) {
+        const size_t i = ends[a], j = ends[b];
+        if (ne.offset[i] < 0 || ne.offset[j] < 0 || ne.offset[i] < ne.offset[j]) continue;
+        const Eigen::MatrixXd hij = lin.jacobians[a].leftCols(ne.size[i]).transpose() *
+                                    lin.jacobians[b].leftCols(ne.size[j]);
+        for (int r = 0; r < ne.size[i]; ++r)
+          for (int c = 0; c < ne.size[j]; ++c)
+            if (i != j || r >= c) entries.emplace_back(ne.offset[i] + r, ne.offset[j] + c, hij(r, c));
+      }
+    }
+  }
+  ne.h.resize(total, total);
+  ne.h.setFromTriplets(entries.begin(), entries.end());  // lower triangle, duplicates summed
+  return ne;
+}
+
+// A direction of one pose that moves no edge's whitened residual is a null
+// vector of the whole system: its diagonal block says so.
+std::optional<std::string> FreePose(const PoseGraph& graph, const GraphGauge& gauge,
+                                    const NormalEquations& ne) {
+  const int d = graph.TangentSize();
+  std::string first;
+  size_t more = 0;
+  for (size_t i = 0; i < ne.diagonal.size(); ++i) {
+    if (ne.offset[i] < 0) continue;
+    const int n = ne.size[i];
+    const Eigen::MatrixXd free = FreeDirections(ne.diagonal[i].topLeftCorner(n, n));
+    if (free.cols() == 0) continue;
+    if (!first.empty()) {
+      ++more;
+      continue;
+    }
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(d);
+    v.head(n) = free.col(0);
+    first = "vertex " + std::to_string(graph.vertices()[i].id) + ": " +
+            DescribeDirection(v, graph.dimension()) + " is not constrained by any edge";
+  }
+  (void)gauge;
+  if (first.empty()) return std::nullopt;
+  if (more > 0) first += " (nor are " + std::to_string(more) + " more vertices in some direction)";
+  return first;
+}
+
+// Poses free only together (two that one full edge joins, each held to the
+// rest by edges blind in the same direction). The smallest pivot of the
+// LDL^T factorisation (relative to its diagonal entry; a tiny multiple of
+// the diagonal keeps it going past a zero) points at the weakest
+// coordinate; a few steps of inverse iteration from there give the weakest
+// direction x and its weight x^T H x / x^T D x. That is rounding for a
+// direction nothing constrains and orders of magnitude more for the most
+// ill-conditioned determined graphs measured (docs/robustness.md).
+std::optional<std::string> FreeTogether(const PoseGraph& graph, const NormalEquations& ne) {
+  if (ne.h.rows() == 0) return std::nullopt;
+  Eigen::SparseMatrix<double> h = ne.h;
+  const Eigen::VectorXd diag = h.diagonal().cwiseMax(std::numeric_limits<double>::min());
+  for (int k = 0; k < h.rows(); ++k) h.coeffRef(k, k) += kRegularisation * diag[k];
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt(h);
+  if (ldlt.info() != Eigen::Success) return "the normal equations are singular";
+  const Eigen::VectorXd pivots = ldlt.vectorD();
+  const auto& perm = ldlt.permutationP().indices();  // original k -> its place
+  int weakest = 0;
+  for (int k = 1; k < h.rows(); ++k)
+    if (pivots[perm[k]] / diag[k] < pivots[perm[weakest]] / diag[weakest]) weakest = k;
+  if (pivots[perm[weakest]] / diag[weakest] > kCandidatePivot) return std::nullopt;
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(h.rows());
+  x[weakest] = 1;
+  const Eigen::VectorXd root = diag.cwiseSqrt();
+  for (int it = 0; it < 4; ++it) {
+    const Eigen::VectorXd b = diag.asDiagonal() * x;  // not aliased with the result
+    x = ldlt.solve(b);
+    x /= x.cwiseProduct(root).cwiseAbs().maxCoeff();  // no overflow along a null
+    x /= x.cwiseProduct(root).norm();
+  }
+  const Eigen::SparseMatrix<double> full = ne.h.selfadjointView<Eigen::Lower>();
+  const double weight = x.dot(full * x);  // x^T D x = 1
+  if (x.allFinite() && weight > kFreeWeight) return std::nullopt;
+  if (!x.allFinite()) x = Eigen::VectorXd::Unit(h.rows(), weakest);
+  int k = 0;
+  x.cwiseProduct(diag.cwiseSqrt()).cwiseAbs().maxCoeff(&k);
+  size_t v = 0;
+  while (ne.offset[v] < 0 || k >= ne.offset[v] + ne.size[v]) ++v;
+  Eigen::VectorXd dir = Eigen::VectorXd::Zero(graph.TangentSize());
+  dir.head(ne.size[v]) = x.segment(ne.offset[v], ne.size[v]);
+  return "vertex " + std::to_string(graph.vertices()[v].id) + ": " +
+         DescribeDirection(dir, graph.dimension()) +
+         " is not constrained by the edges: it moves freely together with other poses";
+}
+
 }  // namespace
 
 GraphGauge ComputeGauge(const PoseGraph& graph) {
@@ -137,40 +269,9 @@ std::optional<std::string> FindUndetermined(const PoseGraph& graph, const GraphG
   bool any_singular = false;
   for (const Edge& e : graph.edges()) any_singular = any_singular || Singular(graph, e);
   if (!any_singular) return std::nullopt;
-  // A direction of one pose that moves no edge's whitened residual is a
-  // null vector of the whole system: its diagonal block says so.
-  const auto manifold =
-      graph.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
-  const int d = graph.TangentSize(), t = d - RotationSize(graph.dimension());
-  std::vector<Eigen::MatrixXd> h(graph.vertices().size());
-  for (const Edge& e : graph.edges()) {
-    const LinearizedEdge lin = LinearizeEdge(graph, e, *manifold);
-    const int64_t ends[2] = {e.from, e.to};
-    for (size_t k = 0; k < lin.jacobians.size(); ++k) {
-      Eigen::MatrixXd& hk = h[graph.VertexIndex(ends[k])];
-      if (hk.size() == 0) hk = Eigen::MatrixXd::Zero(d, d);
-      hk += lin.jacobians[k].transpose() * lin.jacobians[k];
-    }
-  }
-  std::string first;
-  size_t more = 0;
-  for (size_t i = 0; i < h.size(); ++i) {
-    if (h[i].size() == 0 || gauge.held[i]) continue;
-    const int n = gauge.rotation_held[i] ? t : d;
-    const Eigen::MatrixXd free = FreeDirections(h[i].topLeftCorner(n, n));
-    if (free.cols() == 0) continue;
-    if (!first.empty()) {
-      ++more;
-      continue;
-    }
-    Eigen::VectorXd v = Eigen::VectorXd::Zero(d);
-    v.head(n) = free.col(0);
-    first = "vertex " + std::to_string(graph.vertices()[i].id) + ": " +
-            DescribeDirection(v, graph.dimension()) + " is not constrained by any edge";
-  }
-  if (first.empty()) return std::nullopt;
-  if (more > 0) first += " (nor are " + std::to_string(more) + " more vertices in some direction)";
-  return first;
+  const NormalEquations normal = Assemble(graph, gauge);
+  if (auto local = FreePose(graph, gauge, normal)) return local;
+  return FreeTogether(graph, normal);
 }
 
 bool HeldRotationManifold::Plus(const double* x, const double* delta, double* out) const {

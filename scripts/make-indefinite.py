@@ -3,9 +3,17 @@
 --repair-information: a fraction of the between-edges (EDGE_SE2,
 EDGE_SE3:QUAT) get a negative eigenvalue, -r times their largest, in a
 random direction, r drawn uniformly from (0, WORST] (the first such edge
-gets WORST itself). Everything else is copied as it is.
+gets WORST itself). Everything else is copied as it is. Bridges of the
+graph (edges whose removal would split it, as odometry beyond the last loop
+closure) are left alone unless --bridges: once repaired, such an edge says
+nothing in one direction, and everything beyond it would be free in that
+direction (cairn refuses such a graph, naming a vertex). So would it a
+stretch of odometry with many such edges (k of them in one stretch leave
+3(k-1) degrees of freedom in 2D against 2k constraints, 6(k-1) against 5k
+in 3D): --loops-only leaves odometry alone.
 
   python3 scripts/make-indefinite.py IN.g2o OUT.g2o [--fraction 0.3] [--worst 0.47] [--seed 1]
+                                    [--bridges]
 
 Prints how many matrices it changed. Plain Python (no numpy): a cyclic
 Jacobi eigen-decomposition of each 3x3 or 6x6 matrix."""
@@ -62,6 +70,42 @@ def make_indefinite(info, r, rng):
     return [[rest[i][j] + neg * u[i] * u[j] for j in range(n)] for i in range(n)]
 
 
+def bridges(pairs):
+    """Indices of the edges whose removal disconnects the graph (Tarjan's
+    low-link, iteratively; parallel edges are never bridges)."""
+    adj = {}
+    for k, (a, b) in enumerate(pairs):
+        adj.setdefault(a, []).append((b, k))
+        adj.setdefault(b, []).append((a, k))
+    order, low, out, clock = {}, {}, set(), 0
+    for root in adj:
+        if root in order:
+            continue
+        order[root] = low[root] = clock
+        clock += 1
+        stack = [(root, -1, iter(adj[root]))]
+        while stack:
+            v, via, it = stack[-1]
+            for w, k in it:
+                if k == via:
+                    continue
+                if w in order:
+                    low[v] = min(low[v], order[w])
+                else:
+                    order[w] = low[w] = clock
+                    clock += 1
+                    stack.append((w, k, iter(adj[w])))
+                    break
+            else:
+                stack.pop()
+                if stack:
+                    u = stack[-1][0]
+                    low[u] = min(low[u], low[v])
+                    if low[v] > order[u]:
+                        out.add(via)
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("input")
@@ -69,39 +113,49 @@ def main():
     ap.add_argument("--fraction", type=float, default=0.3)
     ap.add_argument("--worst", type=float, default=0.47)
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--bridges", action="store_true", help="bridges of the graph too")
+    ap.add_argument("--loops-only", action="store_true",
+                    help="only loop closures (ids not consecutive), still about FRACTION of all edges")
     args = ap.parse_args()
+    with open(args.input) as f:
+        lines = f.readlines()
     rng = random.Random(args.seed)
     # tag -> (fields before the information, its dimension)
     layout = {"EDGE_SE2": (6, 3), "EDGE_SE3:QUAT": (10, 6)}
+    pairs = [tuple(l.split()[1:3]) for l in lines if l.split()[:1] and l.split()[0] in layout]
+    keep = set() if args.bridges else bridges(pairs)
+    if args.loops_only:
+        keep |= {k for k, (a, b) in enumerate(pairs) if abs(int(a) - int(b)) == 1}
     changed = edges = 0
     out = []
-    with open(args.input) as f:
-        for line in f:
-            tokens = line.split()
-            if not tokens or tokens[0] not in layout:
-                out.append(line)
-                continue
-            edges += 1
-            first, n = layout[tokens[0]]
-            if rng.random() >= args.fraction:
-                out.append(line)
-                continue
-            values = [float(x) for x in tokens[first:]]
-            info = [[0.0] * n for _ in range(n)]
-            k = 0
-            for r in range(n):
-                for c in range(r, n):
-                    info[r][c] = info[c][r] = values[k]
-                    k += 1
-            worst = args.worst if changed == 0 else rng.uniform(0, args.worst)
-            info = make_indefinite(info, max(worst, 1e-3), rng)
-            upper = [info[r][c] for r in range(n) for c in range(r, n)]
-            out.append(" ".join(tokens[:first] + ["%.17g" % x for x in upper]) + "\n")
-            changed += 1
+    share = args.fraction * len(pairs) / max(1, len(pairs) - len(keep))
+    for line in lines:
+        tokens = line.split()
+        if not tokens or tokens[0] not in layout:
+            out.append(line)
+            continue
+        edges += 1
+        first, n = layout[tokens[0]]
+        # Bridges count towards the fraction: about that share of all edges.
+        if (edges - 1) in keep or rng.random() >= share:
+            out.append(line)
+            continue
+        values = [float(x) for x in tokens[first:]]
+        info = [[0.0] * n for _ in range(n)]
+        k = 0
+        for r in range(n):
+            for c in range(r, n):
+                info[r][c] = info[c][r] = values[k]
+                k += 1
+        worst = args.worst if changed == 0 else rng.uniform(0, args.worst)
+        info = make_indefinite(info, max(worst, 1e-3), rng)
+        upper = [info[r][c] for r in range(n) for c in range(r, n)]
+        out.append(" ".join(tokens[:first] + ["%.17g" % x for x in upper]) + "\n")
+        changed += 1
     with open(args.output, "w") as f:
         f.writelines(out)
     print("%s: %d of %d between-edges made indefinite (smallest eigenvalue down to -%g of the "
-          "largest)" % (args.output, changed, edges, args.worst))
+          "largest; %d edges left alone)" % (args.output, changed, edges, args.worst, len(keep)))
 
 
 if __name__ == "__main__":

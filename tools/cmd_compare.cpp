@@ -59,7 +59,7 @@ struct CompareArgs {
 
 void DeclareOptions(ArgParser& args, CompareArgs& a) {
   args.Positional("FILE", &a.path, "a .g2o or TORO .graph file");
-  args.Option("json", &a.json, "FILE", "also write the comparison as JSON");
+  args.Option("json", &a.json, "FILE", "also write the comparison as JSON (with repaired_information)");
   args.Option("tolerance", &a.tol_m, "M", "largest translation difference accepted, m");
   args.Option("rotation-tolerance", &a.tol_deg, "DEG", "largest rotation difference accepted, degrees");
   args.Option("chi2-tolerance", &a.tol_chi2, "REL", "largest relative final chi2 difference accepted");

@@ -117,7 +117,7 @@ void DeclareOptions(ArgParser& args, OptimizeArgs& a) {
   DeclareSolverOptions(args, a);
   args.Option("report", &a.report, "FILE.json",
               "write a JSON report: initial_chi2, final_chi2, iterations, time_s, "
-              "termination, timings and the per-iteration trace");
+              "termination, timings, the per-iteration trace, repaired_information");
   args.Option("covariance", &a.covariance_ids, "IDS",
               "print the marginal covariances (tangent space, the pose's own frame) of these "
               "vertices at the optimum, e.g. 3,17,42, and add them to the --report JSON");
@@ -285,7 +285,7 @@ std::string ReportJson(const OptimizeArgs& a, const OptimizePlan& p, const PoseG
       j["rejected_loop_closures"].push_back({pair.first, pair.second});
   }
   for (auto& [key, value] : report.items()) j[key] = std::move(value);
-  PutRepairs(j, graph);
+  PutRepairs(j, graph);  // the counts of --repair-information, 0 without
   if (!covariances.empty()) {
     Json cov = Json::object();
     for (size_t k = 0; k < p.covariance_of.size(); ++k)
@@ -312,7 +312,11 @@ int RunOptimize(int argc, char** argv) {
       "Optimises a g2o or TORO pose graph from the estimate in the file and writes the\n"
       "result as g2o (to a temporary file, renamed when complete). Vertices marked\n"
       "FIX stay put; when none is and no prior anchors the graph, the lowest-id\n"
-      "vertex is held. Progress goes to stderr, one line per iteration (chi2 is\n"
+      "vertex is held (when position-only priors fix only its position, the\n"
+      "rotation of the lowest prior vertex). A graph that singular information\n"
+      "leaves undetermined is refused, naming the vertex and the free direction;\n"
+      "an indefinite information matrix is refused unless --repair-information.\n"
+      "Progress goes to stderr, one line per iteration (chi2 is\n"
       "g2o's: twice Ceres's cost, robustified when --robust is set). Options marked\n"
       "ceres: or gn: apply to that solver only.");
   DeclareOptions(args, a);

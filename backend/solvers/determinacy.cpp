@@ -6,9 +6,9 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
+#include <array>
 #include <cstdio>
 #include <limits>
-#include <array>
 #include <memory>
 
 #include "cairn/factors/pose_manifold.h"
@@ -17,9 +17,9 @@
 namespace cairn {
 namespace {
 
-// An eigenvalue below this times the largest of its matrix is a direction
-// nothing constrains. Exact freedoms come out as zero or rounding; the
-// loosest determined figures seen on the shared files are far above.
+// An eigenvalue below this times the largest of its matrix (one pose's
+// block of J^T J, or the priors' weight on a rigid motion) is a direction
+// nothing constrains: exact freedoms come out as zero or rounding.
 constexpr double kFreeRatio = 1e-12;
 // FreeTogether's: the diagonal added to keep the factorisation going, the
 // relative pivot below which a coordinate is looked at, and the weight of
@@ -73,9 +73,11 @@ struct ComponentPriors {
   bool any_definite = false;
 };
 
-// What the priors of a component whose priors are all singular leave of
-// its gauge: nothing, its rotations (held at `gauge_vertex`), or something
-// else (the message).
+// What the priors of a component, all singular, leave of its gauge: their
+// whitened Jacobians with respect to a rigid motion of the whole component
+// (about its first prior's vertex, for conditioning) tell. Nothing; every
+// rotation (then the rotation of the lowest prior vertex is held); or
+// something else, which gauge->undetermined says.
 void PartialGauge(const PoseGraph& graph, const ComponentPriors& cp, GraphGauge* gauge) {
   const auto manifold =
       graph.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
@@ -181,8 +183,7 @@ NormalEquations Assemble(const PoseGraph& graph, const GraphGauge& gauge) {
 
 // A direction of one pose that moves no edge's whitened residual is a null
 // vector of the whole system: its diagonal block says so.
-std::optional<std::string> FreePose(const PoseGraph& graph, const GraphGauge& gauge,
-                                    const NormalEquations& ne) {
+std::optional<std::string> FreePose(const PoseGraph& graph, const NormalEquations& ne) {
   const int d = graph.TangentSize();
   std::string first;
   size_t more = 0;
@@ -200,14 +201,13 @@ std::optional<std::string> FreePose(const PoseGraph& graph, const GraphGauge& ga
     first = "vertex " + std::to_string(graph.vertices()[i].id) + ": " +
             DescribeDirection(v, graph.dimension()) + " is not constrained by any edge";
   }
-  (void)gauge;
   if (first.empty()) return std::nullopt;
   if (more > 0) first += " (nor are " + std::to_string(more) + " more vertices in some direction)";
   return first;
 }
 
-// Poses free only together (two that one full edge joins, each held to the
-// rest by edges blind in the same direction). The smallest pivot of the
+// Poses free only together (beyond a bridge of the graph blind in some
+// direction; a stretch of odometry with many such edges). The smallest pivot of the
 // LDL^T factorisation (relative to its diagonal entry; a tiny multiple of
 // the diagonal keeps it going past a zero) points at the weakest
 // coordinate; a few steps of inverse iteration from there give the weakest
@@ -221,7 +221,8 @@ std::optional<std::string> FreeTogether(const PoseGraph& graph, const NormalEqua
   const Eigen::VectorXd diag = h.diagonal().cwiseMax(std::numeric_limits<double>::min());
   for (int k = 0; k < h.rows(); ++k) h.coeffRef(k, k) += kRegularisation * diag[k];
   const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> ldlt(h);
-  if (ldlt.info() != Eigen::Success) return "the normal equations are singular";
+  if (ldlt.info() != Eigen::Success)
+    return std::string("the normal equations are singular (no free direction found)");
   const Eigen::VectorXd pivots = ldlt.vectorD();
   const auto& perm = ldlt.permutationP().indices();  // original k -> its place
   int weakest = 0;
@@ -294,7 +295,7 @@ std::optional<std::string> FindUndetermined(const PoseGraph& graph, const GraphG
   for (const Edge& e : graph.edges()) any_singular = any_singular || Singular(graph, e);
   if (!any_singular) return std::nullopt;
   const NormalEquations normal = Assemble(graph, gauge);
-  if (auto local = FreePose(graph, gauge, normal)) return local;
+  if (auto local = FreePose(graph, normal)) return local;
   return FreeTogether(graph, normal);
 }
 

@@ -4,6 +4,7 @@
 // and otherwise refuse naming the vertex and the direction nothing fixes.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -11,6 +12,7 @@
 #include "cairn/graph/chi2.h"
 #include "cairn/graph/pose_graph.h"
 #include "cairn/solvers/ceres_solver.h"
+#include "cairn/solvers/covariance.h"
 #include "cairn/solvers/determinacy.h"
 #include "cairn/solvers/graph_gauss_newton.h"
 
@@ -199,6 +201,32 @@ TEST_P(Determinacy, OnePositionOnlyPriorHoldsTheRotationGauge) {
     for (int k = 0; k < 3; ++k)
       if (k < GetParam()) EXPECT_NEAR(x[k], b.truth()[3][k], 1e-6);
     for (int k = GetParam(); k < g.ParameterSize(); ++k) EXPECT_NEAR(x[k], start[k], 1e-12);
+  }
+}
+
+// Covariances see the same gauge (through the incremental optimizer): the
+// prior's vertex has only its translation's, the fix's own inverse (in the
+// pose's frame, which is turned from the fix's: the same eigenvalues);
+// every other pose its full one.
+TEST_P(Determinacy, CovariancesUnderARotationGauge) {
+  Builder b(GetParam());
+  b.Odometry();
+  b.Gps(3);
+  PoseGraph g = b.graph();
+  ASSERT_TRUE(SolveGaussNewton(g).usable);
+  const int t = GetParam();
+  for (SolverKind kind : {SolverKind::kCeres, SolverKind::kGaussNewton}) {
+    const auto cov = MarginalCovariances(g, {3, 6}, kind);
+    ASSERT_EQ(cov.size(), 2u);
+    ASSERT_EQ(cov[0].rows(), t);
+    const Eigen::MatrixXd prior_cov = Information(GetParam(), 10, 0).topLeftCorner(t, t).inverse();
+    const Eigen::VectorXd expected = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(prior_cov).eigenvalues();
+    const Eigen::VectorXd got = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(cov[0]).eigenvalues();
+    EXPECT_LT((got - expected).norm(), 1e-6 * expected.norm()) << cov[0];
+    ASSERT_EQ(cov[1].rows(), g.TangentSize());
+    EXPECT_TRUE(cov[1].allFinite());
+    EXPECT_GT(cov[1].diagonal().minCoeff(), 0);
+    EXPECT_LT(cov[1].diagonal().maxCoeff(), 10);
   }
 }
 

@@ -9,6 +9,7 @@
 
 #include "cairn/solvers/gauss_newton.h"
 #include "cairn/graph/graph_io.h"
+#include "cairn/solvers/determinacy.h"
 #include "cairn/solvers/graph_factors.h"
 #include "cairn/graph/simulate.h"
 #include "cairn/factors/pose_manifold.h"

@@ -6,7 +6,9 @@
 
 #include <ceres/jet.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <cmath>
 
@@ -68,12 +70,23 @@ Eigen::Matrix<T, 3, 1> CompactQuaternion(const Eigen::Quaternion<T>& q) {
   return q.w() < T(0) ? Eigen::Matrix<T, 3, 1>(-q.vec()) : Eigen::Matrix<T, 3, 1>(q.vec());
 }
 
-// Upper Cholesky factor U of an information matrix (Omega = U^T U): the
-// residual U e gives e^T Omega e for any symmetric Omega. The lower factor
-// would only be right for diagonal Omega.
+// A square root U of an information matrix with Omega = U^T U, so that the
+// residual U e gives e^T Omega e (the lower Cholesky factor, Omega = L L^T,
+// would only be right for diagonal Omega). Positive definite: the upper
+// Cholesky factor. Singular (a position-only prior has no Cholesky factor):
+// U = sqrt(Lambda) V^T from Omega = V Lambda V^T, eigenvalues within
+// rounding of zero taken as zero, so the directions Omega gives no weight
+// give no residual.
 template <int N>
 Eigen::Matrix<double, N, N> SqrtInformation(const Eigen::Matrix<double, N, N>& info) {
-  return info.llt().matrixU();
+  const Eigen::LLT<Eigen::Matrix<double, N, N>> llt(info);
+  if (llt.info() == Eigen::Success) {
+    Eigen::Matrix<double, N, N> u = llt.matrixU();
+    if (u.diagonal().minCoeff() > 0) return u;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> eig(info);
+  const Eigen::Matrix<double, N, 1> root = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  return root.asDiagonal() * eig.eigenvectors().transpose();
 }
 
 }  // namespace cairn::factors

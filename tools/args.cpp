@@ -208,6 +208,8 @@ void TakeGlobalOptions(int* argc, char** argv, GlobalOptions* out) {
       out->verbose = true;
     } else if (!only_positionals && arg == "--keep-unknown") {
       out->keep_unknown = true;
+    } else if (!only_positionals && arg == "--repair-information") {
+      out->repair_information = true;
     } else {
       argv[kept++] = argv[i];
     }
@@ -220,7 +222,11 @@ std::string GlobalOptionsHelp() {
   return "\nglobal options (every command):\n"
          "  --verbose               also show the solvers' log lines (glog, Ceres's and cairn's)\n"
          "  --keep-unknown          carry lines with tags cairn does not know through verbatim\n"
-         "                          (written back in place by g2o output) instead of refusing them\n";
+         "                          (written back in place by g2o output) instead of refusing them\n"
+         "  --repair-information    replace each indefinite information matrix by the nearest\n"
+         "                          positive semi-definite one (negative eigenvalues set to zero)\n"
+         "                          instead of refusing the file; says how many on stderr, and\n"
+         "                          the reports count them\n";
 }
 
 }  // namespace cairn::tools

@@ -57,10 +57,11 @@ class ArgParser {
 struct GlobalOptions {
   bool verbose = false;       // glog's lines (Ceres's and cairn's own) on stderr
   bool keep_unknown = false;  // ReadOptions::keep_unknown for every graph read
+  bool repair_information = false;  // ReadOptions::repair_information, likewise
 };
 GlobalOptions& Globals();
 
-// Removes --verbose and --keep-unknown from argv[1..*argc) (up to a "--"),
+// Removes --verbose, --keep-unknown and --repair-information from argv[1..*argc) (up to a "--"),
 // setting them in *out; argv stays null-terminated.
 void TakeGlobalOptions(int* argc, char** argv, GlobalOptions* out);
 

@@ -10,6 +10,7 @@
 #include "cairn/calibration/odometry_calibration.h"
 #include "cairn/frontend/calibration_log.h"
 #include "tools/args.h"
+#include "tools/read_input.h"
 #include "tools/command.h"
 #include "tools/json.h"
 #include "tools/outputs.h"
@@ -145,10 +146,8 @@ CalibrationData ReadData(const CalibrateArgs& a, std::string* source) {
     *source = a.carmen;
     return ReadCarmenCalibration(a.carmen);
   }
-  ReadOptions ro;
-  ro.keep_unknown = Globals().keep_unknown;
   *source = a.g2o + " + " + a.odometry;
-  return CalibrationFromGraphs(ReadGraph(a.g2o, ro), ReadGraph(a.odometry, ro),
+  return CalibrationFromGraphs(ReadInputGraph(a.g2o), ReadInputGraph(a.odometry),
                                a.edge_information);
 }
 

@@ -11,6 +11,7 @@
 #include "cairn/graph/initialization.h"
 #include "cairn/graph/pose_difference.h"
 #include "tools/args.h"
+#include "tools/read_input.h"
 #include "tools/command.h"
 #include "tools/json.h"
 #include "tools/outputs.h"
@@ -58,7 +59,7 @@ struct CompareArgs {
 
 void DeclareOptions(ArgParser& args, CompareArgs& a) {
   args.Positional("FILE", &a.path, "a .g2o or TORO .graph file");
-  args.Option("json", &a.json, "FILE", "also write the comparison as JSON");
+  args.Option("json", &a.json, "FILE", "also write the comparison as JSON (with repaired_information)");
   args.Option("tolerance", &a.tol_m, "M", "largest translation difference accepted, m");
   args.Option("rotation-tolerance", &a.tol_deg, "DEG", "largest rotation difference accepted, degrees");
   args.Option("chi2-tolerance", &a.tol_chi2, "REL", "largest relative final chi2 difference accepted");
@@ -220,14 +221,12 @@ int RunCompare(int argc, char** argv) {
   GaussNewtonOptions go;
   if (!MakeOptions(a, &co, &go)) return 2;
 
-  ReadOptions ro;
-  ro.keep_unknown = Globals().keep_unknown;
   const InitMethod init_method = ParseInitMethod(a.init);
   CommandOutputs outputs;
   outputs.Input(a.path);
   outputs.Output(a.json);
   outputs.Check();
-  PoseGraph input = ReadGraph(a.path, ro);
+  PoseGraph input = ReadInputGraph(a.path);
   const InitReport init_report = Initialize(input, init_method);
   if (!a.quiet)
     std::fprintf(stderr, "initial estimate: %s, %.4f s, chi2 %.10g\n", ToString(init_method),
@@ -242,10 +241,18 @@ int RunCompare(int argc, char** argv) {
   if (init_method == InitMethod::kAuto) std::printf("%s\n", DescribeAutoChoice(init_report).c_str());
   PrintTable(c, g, d, chi2_rel);
   if (!a.json.empty()) {
-    const Json j = CompareJson(a.path, init_method, init_report, runs, d, chi2_rel);
+    Json j = CompareJson(a.path, init_method, init_report, runs, d, chi2_rel);
+    PutRepairs(j, input);
     outputs.Write(a.json, [&](std::ostream& os) { os << DumpJson(j); });
     outputs.Commit();
   }
+  // A problem the graph does not determine (solvers/determinacy.h) fails
+  // both alike, before any step: say why rather than compare the starts.
+  for (const SolveResult* r : {&c, &g})
+    if (!r->usable) {
+      PrintError(std::string(r == &c ? "ceres" : "gn") + " failed: " + r->message);
+      return 1;
+    }
   const bool agree = d.max_translation <= a.tol_m && d.max_rotation_deg <= a.tol_deg &&
                      chi2_rel <= a.tol_chi2;
   if (!agree) {

@@ -8,6 +8,7 @@
 #include "cairn/graph/output_files.h"
 #include "cairn/robust/corrupt.h"
 #include "tools/args.h"
+#include "tools/read_input.h"
 #include "tools/command.h"
 #include "tools/outputs.h"
 
@@ -50,9 +51,7 @@ int RunCorrupt(int argc, char** argv) {
   outputs.GraphOutput(out);
   outputs.Output(list);
   outputs.Check();
-  ReadOptions read_options;
-  read_options.keep_unknown = Globals().keep_unknown;
-  PoseGraph graph = ReadGraph(in, read_options);
+  PoseGraph graph = ReadInputGraph(in);
   outputs.CheckGraphFits(graph);
   if (fraction >= 0)
     outliers = static_cast<int>(

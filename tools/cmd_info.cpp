@@ -6,6 +6,7 @@
 #include "cairn/graph/graph_io.h"
 #include "cairn/graph/initialization.h"
 #include "tools/args.h"
+#include "tools/read_input.h"
 #include "tools/command.h"
 #include "tools/json.h"
 
@@ -28,15 +29,13 @@ int RunInfo(int argc, char** argv) {
   args.Positional("FILE", &path, "a .g2o or TORO .graph file");
   args.Flag("json", &json, "print one JSON object (keys vertices, poses, landmarks, odometry_edges, "
                            "loop_closures, priors, landmark_edges, landmark_priors, fixed, "
-                           "components, chi2, dimension)");
+                           "components, chi2, dimension, repaired_information)");
   args.Flag("strict", &strict, "accepted for old scripts: unknown tags are always refused now "
                                "(unless --keep-unknown)");
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
 
-  ReadOptions options;
-  options.keep_unknown = Globals().keep_unknown;
-  const PoseGraph graph = ReadGraph(path, options);
+  const PoseGraph graph = ReadInputGraph(path);
   const size_t components = ConnectedComponents(graph).size();
   const double chi2 = Chi2(graph);
   if (json) {
@@ -54,6 +53,7 @@ int RunInfo(int argc, char** argv) {
     j["fixed"] = graph.CountFixed();
     j["components"] = components;
     PutNumber(j, "chi2", chi2);
+    PutRepairs(j, graph);
     std::fputs(DumpJson(j, /*one_line=*/true).c_str(), stdout);
     return 0;
   }
@@ -70,6 +70,10 @@ int RunInfo(int argc, char** argv) {
   std::printf("fixed vertices  %zu\n", graph.CountFixed());
   std::printf("components      %zu\n", components);
   std::printf("chi2            %.10g\n", chi2);
+  if (graph.information_repairs().matrices > 0)
+    std::printf("repaired info   %zu (largest clipped eigenvalue %.3g of its matrix's largest)\n",
+                graph.information_repairs().matrices,
+                graph.information_repairs().largest_clipped);
   return 0;
 }
 

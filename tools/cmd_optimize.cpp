@@ -15,6 +15,7 @@
 #include "cairn/solvers/solve_result.h"
 #include "cairn/graph/svg_plot.h"
 #include "tools/args.h"
+#include "tools/read_input.h"
 #include "tools/command.h"
 #include "tools/json.h"
 #include "tools/outputs.h"
@@ -116,7 +117,7 @@ void DeclareOptions(ArgParser& args, OptimizeArgs& a) {
   DeclareSolverOptions(args, a);
   args.Option("report", &a.report, "FILE.json",
               "write a JSON report: initial_chi2, final_chi2, iterations, time_s, "
-              "termination, timings and the per-iteration trace");
+              "termination, timings, the per-iteration trace, repaired_information");
   args.Option("covariance", &a.covariance_ids, "IDS",
               "print the marginal covariances (tangent space, the pose's own frame; a "
               "landmark's in the world frame) of these vertices at the optimum, e.g. 3,17,42, "
@@ -288,6 +289,7 @@ std::string ReportJson(const OptimizeArgs& a, const OptimizePlan& p, const PoseG
       j["rejected_loop_closures"].push_back({pair.first, pair.second});
   }
   for (auto& [key, value] : report.items()) j[key] = std::move(value);
+  PutRepairs(j, graph);  // the counts of --repair-information, 0 without
   if (!covariances.empty()) {
     Json cov = Json::object();
     for (size_t k = 0; k < p.covariance_of.size(); ++k)
@@ -315,7 +317,11 @@ int RunOptimize(int argc, char** argv) {
       "result as g2o, or as TORO when OUT ends in .graph (to a temporary file, renamed\n"
       "when complete). Vertices marked\n"
       "FIX stay put; when none is and no prior anchors the graph, the lowest-id\n"
-      "vertex is held. Progress goes to stderr, one line per iteration (chi2 is\n"
+      "vertex is held (when position-only priors fix only its position, the\n"
+      "rotation of the lowest prior vertex). A graph that singular information\n"
+      "leaves undetermined is refused, naming the vertex and the free direction;\n"
+      "an indefinite information matrix is refused unless --repair-information.\n"
+      "Progress goes to stderr, one line per iteration (chi2 is\n"
       "g2o's: twice Ceres's cost, robustified when --robust is set). Options marked\n"
       "ceres: or gn: apply to that solver only.");
   DeclareOptions(args, a);
@@ -327,11 +333,9 @@ int RunOptimize(int argc, char** argv) {
   CommandOutputs outputs;
   DeclareFiles(a, outputs);
 
-  ReadOptions read_options;
-  read_options.keep_unknown = Globals().keep_unknown;
   Timings t;
   const auto read_start = std::chrono::steady_clock::now();
-  PoseGraph graph = ReadGraph(a.in, read_options);
+  PoseGraph graph = ReadInputGraph(a.in);
   t.read_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - read_start).count();
   outputs.CheckGraphFits(graph);
   // Only copied when asked for: the "before" panel of the plot, the file's

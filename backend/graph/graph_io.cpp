@@ -126,9 +126,39 @@ void ReadUpperTriangle(const Fields& f, size_t first, int n, Matrix6d* info) {
     }
 }
 
-void CheckInformation(const Fields& f, const Matrix6d& info, int n) {
-  if (!IsSymmetricPositiveDefinite(info.topLeftCorner(n, n)))
-    f.Fail("information matrix is not positive definite");
+// A singular information matrix is taken (a position-only prior); an
+// indefinite one is refused, or with `repairs` replaced by the nearest
+// positive semi-definite one and counted there.
+void CheckInformation(const Fields& f, Matrix6d* info, int n, InformationRepairs* repairs) {
+  Eigen::MatrixXd block = info->topLeftCorner(n, n);
+  double smallest = 0;
+  switch (ClassifyInformation(block, &smallest)) {
+    case InformationClass::kPositiveDefinite:
+    case InformationClass::kSingular: return;
+    case InformationClass::kUnusable:
+      f.Fail("information matrix is " +
+             std::string(!block.allFinite() ? "not finite"
+                         : block.cwiseAbs().maxCoeff() > 0 ? "not symmetric" : "zero"));
+    case InformationClass::kIndefinite: break;
+  }
+  if (!repairs) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "information matrix is indefinite (smallest eigenvalue %.3g times the "
+                  "largest); --repair-information replaces it by the nearest positive "
+                  "semi-definite matrix",
+                  smallest);
+    f.Fail(buf);
+  }
+  const double clipped = ClipToSemiDefinite(&block);
+  if (ClassifyInformation(block) == InformationClass::kUnusable)
+    f.Fail("information matrix has no positive eigenvalue: nothing is left once repaired");
+  info->topLeftCorner(n, n) = block;
+  ++repairs->matrices;
+  if (clipped > repairs->largest_clipped) {
+    repairs->largest_clipped = clipped;
+    repairs->largest_line = f.line();
+  }
 }
 
 // TORO's 2D order is (xx, xy, yy, tt, xt, yt).
@@ -223,6 +253,7 @@ class Reader {
       graph.vertex(id).fixed = true;
     }
     for (VerbatimLine& l : graph_lines_) graph.AddVerbatimLine(std::move(l));
+    graph.set_information_repairs(repairs_);
     if (edges_only) ChainAlongSpanningTree(graph);
     return std::move(graph);
   }
@@ -271,7 +302,7 @@ class Reader {
       } else {
         e.information = ToroInformation2D(f, 6);
       }
-      CheckInformation(f, e.information, 3);
+      CheckInformation(f, &e.information, 3, Repairs());
     } else if (tag == "EDGE_SE3:QUAT") {
       SetDimension(f, 3);
       f.ExpectCount(30);
@@ -279,7 +310,7 @@ class Reader {
       for (int i = 0; i < 7; ++i) e.z[i] = f.Number(3 + i, i < 3 ? "a translation" : "a quaternion");
       CheckQuaternion(f, &e.z[3]);
       ReadUpperTriangle(f, 10, 6, &e.information);
-      CheckInformation(f, e.information, 6);
+      CheckInformation(f, &e.information, 6, Repairs());
     } else if (tag == "EDGE3") {
       SetDimension(f, 3);
       f.ExpectCount(29);
@@ -293,13 +324,13 @@ class Reader {
   }
 
   // EDGE3's measurement and information, its angles and weights turned into g2o's.
-  static void ReadToroEdge3D(const Fields& f, Edge* e) {
+  void ReadToroEdge3D(const Fields& f, Edge* e) {
     Vector6d v;
     for (int i = 0; i < 6; ++i) v[i] = i < 3 ? f.Number(3 + i, "a translation") : f.Angle(3 + i, "an angle");
     e->z = ToParams(SE3::FromEulerVector(v));
     Matrix6d rpy;
     ReadUpperTriangle(f, 9, 6, &rpy);
-    CheckInformation(f, rpy, 6);
+    CheckInformation(f, &rpy, 6, Repairs());
     // TORO weighs small roll-pitch-yaw errors; g2o's rotation error is the
     // quaternion's vector part, about half the angles: Omega_q = J^T Omega J
     // with J = diag(I, 2I).
@@ -383,7 +414,7 @@ class Reader {
       f.CheckRange(e.z[i], kMaxAbsCoordinate, "coordinate", "");
     }
     ReadUpperTriangle(f, first + dim, dim, &e.information);
-    CheckInformation(f, e.information, dim);
+    CheckInformation(f, &e.information, dim, Repairs());
     PushEdge(f, e);
     return true;
   }
@@ -398,7 +429,7 @@ class Reader {
       e = Prior(f);
       e.z = {f.Number(2, "x"), f.Number(3, "y"), f.Number(4, "theta"), 0, 0, 0, 0};
       ReadUpperTriangle(f, 5, 3, &e.information);
-      CheckInformation(f, e.information, 3);
+      CheckInformation(f, &e.information, 3, Repairs());
     } else if (tag == "EDGE_SE3_PRIOR") {
       SetDimension(f, 3);
       f.ExpectCount(30);
@@ -413,7 +444,7 @@ class Reader {
       for (int i = 0; i < 7; ++i) e.z[i] = f.Number(3 + i, i < 3 ? "a translation" : "a quaternion");
       CheckQuaternion(f, &e.z[3]);
       ReadUpperTriangle(f, 10, 6, &e.information);
-      CheckInformation(f, e.information, 6);
+      CheckInformation(f, &e.information, 6, Repairs());
     } else {
       return false;
     }
@@ -490,6 +521,8 @@ class Reader {
     graph_lines_.push_back({graph_ ? graph_->vertices().size() : 0, edge_count_, raw});
   }
 
+  InformationRepairs* Repairs() { return options_.repair_information ? &repairs_ : nullptr; }
+
   Edge Between(const Fields& f) const {
     Edge e;
     e.from = f.Id(1);
@@ -526,6 +559,7 @@ class Reader {
     return p[0] == 0 && p[1] == 0 && p[2] == 0 && std::fabs(p[6]) == 1.0;
   }
   std::vector<VerbatimLine> graph_lines_;
+  InformationRepairs repairs_;
 };
 
 }  // namespace

@@ -23,6 +23,12 @@ struct ReadOptions {
   // is kept verbatim instead (PoseGraph::verbatim_lines) and WriteG2o writes
   // it back in its place.
   bool keep_unknown = false;
+  // An indefinite information matrix (some direction of the error with
+  // negative weight: chi2 could go below zero) is an error naming its line.
+  // With repair_information it is replaced by the nearest positive
+  // semi-definite matrix (its negative eigenvalues set to zero), counted in
+  // PoseGraph::information_repairs. A singular one is taken either way.
+  bool repair_information = false;
   // A longer line is an error, not a buffer without end (text_input.h).
   size_t max_line_bytes = kDefaultMaxLineBytes;
 };

@@ -1,6 +1,7 @@
 #include "cairn/graph/pose_graph.h"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <numeric>
 #include <queue>
@@ -82,8 +83,14 @@ void PoseGraph::AddEdge(const Edge& edge) {
   if (edge.kind == EdgeKind::kLandmark && dimension_ == 3 && !HasOffset(edge.offset))
     throw std::invalid_argument("landmark observation through offset " +
                                 std::to_string(edge.offset) + ", which is not defined");
-  if (!IsSymmetricPositiveDefinite(Information(edge)))
-    throw std::invalid_argument("information matrix is not symmetric positive definite");
+  switch (ClassifyInformation(Information(edge))) {
+    case InformationClass::kPositiveDefinite:
+    case InformationClass::kSingular: break;
+    case InformationClass::kIndefinite:
+      throw std::invalid_argument("information matrix is not positive semi-definite");
+    case InformationClass::kUnusable:
+      throw std::invalid_argument("information matrix is zero, not finite or not symmetric");
+  }
   edges_.push_back(edge);
   // Keep the unused parts canonical so that equal edges compare equal.
   Edge& e = edges_.back();
@@ -149,6 +156,34 @@ bool IsSymmetricPositiveDefinite(const Eigen::MatrixXd& info) {
   if (llt.info() != Eigen::Success) return false;
   // A factor with a zero pivot passes LLT in floating point; demand a real one.
   return llt.matrixL().toDenseMatrix().diagonal().minCoeff() > 0;
+}
+
+InformationClass ClassifyInformation(const Eigen::MatrixXd& info, double* smallest) {
+  if (!info.allFinite()) return InformationClass::kUnusable;
+  const double scale = info.cwiseAbs().maxCoeff();
+  if (!(scale > 0)) return InformationClass::kUnusable;
+  if ((info - info.transpose()).cwiseAbs().maxCoeff() > 1e-9 * scale)
+    return InformationClass::kUnusable;
+  if (IsSymmetricPositiveDefinite(info)) return InformationClass::kPositiveDefinite;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(info, Eigen::EigenvaluesOnly);
+  const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
+  const double largest = lambda.cwiseAbs().maxCoeff();
+  const double ratio = lambda[0] / largest;
+  if (smallest) *smallest = ratio;
+  return ratio < -kSemiDefiniteTolerance ? InformationClass::kIndefinite
+                                         : InformationClass::kSingular;
+}
+
+double ClipToSemiDefinite(Eigen::MatrixXd* info) {
+  const Eigen::MatrixXd sym = 0.5 * (*info + info->transpose());
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(sym);
+  const Eigen::VectorXd& lambda = eig.eigenvalues();
+  const double largest = lambda.cwiseAbs().maxCoeff();
+  if (!(largest > 0) || lambda[0] >= 0) return 0;
+  const Eigen::MatrixXd& v = eig.eigenvectors();
+  *info = v * lambda.cwiseMax(0.0).asDiagonal() * v.transpose();
+  *info = 0.5 * (*info + info->transpose());  // exactly symmetric, as files write it
+  return -lambda[0] / largest;
 }
 
 namespace {

@@ -69,6 +69,15 @@ struct VerbatimLine {
   std::string text;
 };
 
+// Indefinite information matrices replaced by their nearest positive
+// semi-definite ones: how many, and the largest change, as the magnitude of
+// the most negative eigenvalue clipped relative to that matrix's largest.
+struct InformationRepairs {
+  size_t matrices = 0;
+  double largest_clipped = 0;
+  size_t largest_line = 0;  // the file line of that matrix (0: none)
+};
+
 class PoseGraph {
  public:
   explicit PoseGraph(int dimension = 2);
@@ -95,7 +104,10 @@ class PoseGraph {
   // Throws std::invalid_argument when an endpoint is missing or of the
   // wrong sort (a pose where the edge needs a point, or the reverse), a 3D
   // observation's offset is not defined, the information matrix is not
-  // symmetric positive definite, or a between-edge joins a vertex to itself.
+  // symmetric positive semi-definite (or is zero, or not finite), or a
+  // between-edge joins a vertex to itself. A singular one is taken: a
+  // direction of the error it gives no weight (a position-only prior) is
+  // left to the other edges (solvers/determinacy.h).
   void AddEdge(const Edge& edge);
 
   // Sensor offsets of 3D landmark observations (g2o's PARAMS_SE3OFFSET), by
@@ -128,6 +140,11 @@ class PoseGraph {
   // The information block that applies to this graph's dimension.
   Eigen::MatrixXd Information(const Edge& e) const;
 
+  // What the reader changed to make indefinite information usable
+  // (ReadOptions::repair_information); all zero when nothing.
+  const InformationRepairs& information_repairs() const { return repairs_; }
+  void set_information_repairs(const InformationRepairs& r) { repairs_ = r; }
+
  private:
   int dimension_;
   std::deque<Vertex> vertices_;
@@ -136,6 +153,7 @@ class PoseGraph {
   std::vector<VerbatimLine> verbatim_lines_;
   size_t landmarks_ = 0;
   std::map<int32_t, SE3> offsets_;
+  InformationRepairs repairs_;
 };
 
 // For code that treats every vertex as a pose (plots, trajectory errors,
@@ -163,6 +181,20 @@ EdgeKind KindForBetween(int64_t from, int64_t to);
 
 // True when `info` is symmetric (to a relative 1e-9) and positive definite.
 bool IsSymmetricPositiveDefinite(const Eigen::MatrixXd& info);
+
+// An information matrix as the solvers see it. Eigenvalues down to
+// -kSemiDefiniteTolerance times the largest count as zero (rounding in a
+// file written from a singular matrix).
+enum class InformationClass { kPositiveDefinite, kSingular, kIndefinite, kUnusable };
+constexpr double kSemiDefiniteTolerance = 1e-9;
+// kUnusable: not finite, not symmetric to a relative 1e-9, or zero. When
+// `smallest` is given and the matrix is not positive definite, it gets the
+// smallest eigenvalue over the largest in magnitude.
+InformationClass ClassifyInformation(const Eigen::MatrixXd& info, double* smallest = nullptr);
+// Replaces a symmetric `info` by the nearest positive semi-definite matrix
+// (Frobenius norm: its eigenvalues clipped at zero) and returns the most
+// negative eigenvalue's magnitude relative to the largest (0 if none).
+double ClipToSemiDefinite(Eigen::MatrixXd* info);
 
 // Vertex ids of each connected component (between-edges and landmark
 // observations: poses that see a common landmark are one component), each

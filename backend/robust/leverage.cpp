@@ -8,6 +8,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "cairn/solvers/determinacy.h"
 #include "cairn/solvers/graph_factors.h"
 #include "cairn/factors/pose_manifold.h"
 
@@ -16,31 +17,14 @@ namespace {
 
 using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-// The whitened residual of an edge and its Jacobians in the tangent spaces
-// of its vertices (one d x d block per vertex).
 struct Linearized {
   Eigen::VectorXd r;
   std::vector<Eigen::MatrixXd> jac;
 };
 
 Linearized Linearize(const PoseGraph& graph, const Edge& edge, const ceres::Manifold& manifold) {
-  const std::unique_ptr<ceres::CostFunction> cost(MakeCostFunction(graph, edge));
-  const int d = graph.TangentSize(), p = graph.ParameterSize();
-  std::vector<const double*> params = {graph.vertex(edge.from).x.data()};
-  if (!edge.IsPrior()) params.push_back(graph.vertex(edge.to).x.data());
-  std::vector<RowMajor> ambient(params.size(), RowMajor(d, p));
-  std::vector<double*> jac_ptrs;
-  for (RowMajor& a : ambient) jac_ptrs.push_back(a.data());
-  Linearized out;
-  out.r.resize(d);
-  if (!cost->Evaluate(params.data(), out.r.data(), jac_ptrs.data()))
-    throw std::runtime_error("an edge's residual could not be evaluated");
-  for (size_t k = 0; k < params.size(); ++k) {
-    RowMajor plus(p, d);
-    manifold.PlusJacobian(params[k], plus.data());
-    out.jac.push_back(ambient[k] * plus);
-  }
-  return out;
+  LinearizedEdge lin = LinearizeEdge(graph, edge, manifold);
+  return Linearized{std::move(lin.residual), std::move(lin.jacobians)};
 }
 
 // The entries of A^{-1} on the pattern of A's Cholesky factor L (lower,

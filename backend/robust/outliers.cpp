@@ -8,6 +8,7 @@
 #include "cairn/graph/chi2.h"
 #include "cairn/robust/leverage.h"
 #include "cairn/robust/local_consistency.h"
+#include "cairn/solvers/determinacy.h"
 #include "cairn/solvers/graph_factors.h"
 
 namespace cairn {

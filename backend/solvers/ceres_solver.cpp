@@ -16,6 +16,7 @@
 #include "cairn/graph/chi2.h"
 #include "cairn/graph/runtime.h"
 #include "cairn/linear/serial_scope.h"
+#include "cairn/solvers/determinacy.h"
 #include "cairn/solvers/graph_factors.h"
 #include "cairn/linear/cholmod_common.h"
 #include "cairn/factors/pose_manifold.h"
@@ -171,7 +172,10 @@ CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_cl
 
   // The same parameters and gauge as the Gauss-Newton path (graph_factors.h).
   const std::vector<bool> touched = TouchedVertices(graph);
-  const std::vector<bool> held = HeldConstant(graph);
+  const GraphGauge gauge = ComputeGauge(graph);
+  const std::vector<bool>& held = gauge.held;
+  const int size = graph.ParameterSize();
+  held_rotation_ = std::make_unique<HeldRotationManifold>(manifold_.get(), size == 7 ? 3 : 2);
   for (size_t i = 0; i < graph.vertices().size(); ++i) {
     if (!touched[i]) continue;
     Vertex& v = graph.vertices()[i];
@@ -182,7 +186,8 @@ CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_cl
         // The factors invert quaternions by conjugation, right only for unit ones.
         Eigen::Map<Eigen::Quaterniond>(v.x.data() + 3).normalize();
       }
-      problem_->AddParameterBlock(v.x.data(), graph.ParameterSize(), manifold_.get());
+      problem_->AddParameterBlock(v.x.data(), size,
+                                  gauge.rotation_held[i] ? held_rotation_.get() : manifold_.get());
     }
     if (held[i]) {
       problem_->SetParameterBlockConstant(v.x.data());
@@ -240,6 +245,13 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
     result.initial_chi2 = result.final_chi2 = std::numeric_limits<double>::quiet_NaN();
     result.termination = "failure";
     result.message = "vertex " + std::to_string(*bad) + " has a non-finite estimate";
+    result.time_s = Seconds(start);
+    return result;
+  }
+  if (const auto why = FindUndetermined(graph, ComputeGauge(graph))) {
+    result.initial_chi2 = result.final_chi2 = Chi2(graph);
+    result.termination = "failure";
+    result.message = *why;
     result.time_s = Seconds(start);
     return result;
   }

@@ -87,6 +87,7 @@ class CeresGraphProblem {
   // The problem borrows the manifold and loss (one object for all blocks),
   // so they are declared first and destroyed after it.
   std::unique_ptr<ceres::Manifold> manifold_;
+  std::unique_ptr<ceres::Manifold> held_rotation_;  // for a rotation gauge
   std::unique_ptr<ceres::LossFunction> loop_closure_loss_;
   std::unique_ptr<ceres::Problem> problem_;
   std::optional<int64_t> gauge_;

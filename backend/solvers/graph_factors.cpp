@@ -1,6 +1,8 @@
 #include "cairn/solvers/graph_factors.h"
 
 #include <cmath>
+#include <memory>
+#include <stdexcept>
 
 #include "cairn/graph/pose_graph.h"
 
@@ -74,30 +76,27 @@ std::vector<bool> TouchedVertices(const PoseGraph& graph) {
   return touched;
 }
 
-std::vector<bool> HeldConstant(const PoseGraph& graph) {
-  const auto& vertices = graph.vertices();
-  const std::vector<bool> touched = TouchedVertices(graph);
-  std::vector<bool> held(vertices.size(), false);
-  // A fixed pose or a prior on a pose anchors its component; a point does
-  // not (the rotation about it stays free), so the gauge is always a pose.
-  std::vector<bool> anchors(vertices.size(), false);
-  for (size_t i = 0; i < vertices.size(); ++i) {
-    held[i] = touched[i] && vertices[i].fixed;
-    anchors[i] = held[i] && !vertices[i].landmark;
+LinearizedEdge LinearizeEdge(const PoseGraph& graph, const Edge& edge,
+                             const ceres::Manifold& manifold) {
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  if (edge.IsLandmark()) throw std::invalid_argument("LinearizeEdge: a landmark edge");
+  const std::unique_ptr<ceres::CostFunction> cost(MakeCostFunction(graph, edge));
+  const int d = graph.TangentSize(), p = graph.ParameterSize();
+  std::vector<const double*> params = {graph.vertex(edge.from).x.data()};
+  if (!edge.IsPrior()) params.push_back(graph.vertex(edge.to).x.data());
+  std::vector<RowMajor> ambient(params.size(), RowMajor(d, p));
+  std::vector<double*> jac_ptrs;
+  for (RowMajor& a : ambient) jac_ptrs.push_back(a.data());
+  LinearizedEdge out;
+  out.residual.resize(d);
+  if (!cost->Evaluate(params.data(), out.residual.data(), jac_ptrs.data()))
+    throw std::runtime_error("an edge's residual could not be evaluated");
+  for (size_t k = 0; k < params.size(); ++k) {
+    RowMajor plus(p, d);
+    manifold.PlusJacobian(params[k], plus.data());
+    out.jacobians.push_back(ambient[k] * plus);
   }
-  for (const Edge& e : graph.edges())
-    if (e.kind == EdgeKind::kPrior) anchors[graph.VertexIndex(e.from)] = true;
-  for (const std::vector<int64_t>& component : ConnectedComponents(graph)) {
-    bool needs_gauge = true;
-    long lowest = -1;  // components come sorted: the first touched pose is the lowest
-    for (int64_t id : component) {
-      const size_t i = graph.VertexIndex(id);
-      if (anchors[i]) needs_gauge = false;
-      if (lowest < 0 && touched[i] && !vertices[i].landmark) lowest = static_cast<long>(i);
-    }
-    if (needs_gauge && lowest >= 0) held[lowest] = true;
-  }
-  return held;
+  return out;
 }
 
 std::optional<int64_t> FirstNonFiniteVertex(const PoseGraph& graph) {

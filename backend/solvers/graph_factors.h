@@ -4,6 +4,9 @@
 
 #include <ceres/cost_function.h>
 #include <ceres/loss_function.h>
+#include <ceres/manifold.h>
+
+#include <Eigen/Core>
 
 #include <memory>
 #include <optional>
@@ -16,6 +19,16 @@ namespace cairn {
 
 // A new autodiff cost function for the edge (the caller owns it).
 ceres::CostFunction* MakeCostFunction(const PoseGraph& graph, const Edge& edge);
+
+// An edge's whitened residual and its Jacobians in the tangent spaces of
+// its vertices (one d x d block per vertex: from, then to), at the
+// graph's estimate.
+struct LinearizedEdge {
+  Eigen::VectorXd residual;
+  std::vector<Eigen::MatrixXd> jacobians;
+};
+LinearizedEdge LinearizeEdge(const PoseGraph& graph, const Edge& edge,
+                             const ceres::Manifold& manifold);
 
 // Ceres's loss for a RobustLoss (null for none). Ceres's losses act on the
 // squared norm s = |r|^2 with the shapes of g2o's kernels of the same width.
@@ -53,13 +66,6 @@ class DcsLoss final : public ceres::LossFunction {
 // it is a parameter of the problem.
 std::vector<bool> TouchedVertices(const PoseGraph& graph);
 
-// Per vertex (in vertices() order): held constant during optimisation. FIX
-// vertices are held; in each connected component (landmark observations
-// join it) that no fixed pose and no pose prior anchors, the lowest-id pose
-// that an edge touches is held as that component's gauge, so that a graph
-// in several pieces never leaves the normal equations singular. A fixed
-// landmark or a point prior does not anchor: the rotation stays free.
-std::vector<bool> HeldConstant(const PoseGraph& graph);
 
 // The id of the first vertex whose estimate holds a NaN or infinity: both
 // solvers refuse such a start with a message naming it.

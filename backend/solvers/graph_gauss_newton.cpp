@@ -6,6 +6,7 @@
 #include <string>
 
 #include "cairn/graph/chi2.h"
+#include "cairn/solvers/determinacy.h"
 #include "cairn/solvers/graph_factors.h"
 #include "cairn/factors/pose_manifold.h"
 
@@ -24,9 +25,19 @@ SolveResult SolveGaussNewton(PoseGraph& graph, const GaussNewtonOptions& options
   }
   const auto manifold =
       graph.dimension() == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold();
+  const GraphGauge gauge = ComputeGauge(graph);
+  if (const auto why = FindUndetermined(graph, gauge)) {
+    SolveResult result;
+    result.solver = "gn";
+    result.initial_chi2 = result.final_chi2 = Chi2(graph);
+    result.termination = "failure";
+    result.message = *why;
+    return result;
+  }
+  const HeldRotationManifold held_rotation(manifold.get(), graph.dimension() == 2 ? 2 : 3);
   const auto loop_closure_loss = MakeLoss(options.loop_closure_loss);
   GaussNewtonProblem problem;
-  const std::vector<bool> held = HeldConstant(graph);
+  const std::vector<bool>& held = gauge.held;
   auto& vertices = graph.vertices();
   for (size_t i = 0; i < vertices.size(); ++i) {
     if (vertices[i].landmark) {
@@ -39,7 +50,8 @@ SolveResult SolveGaussNewton(PoseGraph& graph, const GaussNewtonOptions& options
       // ones; normalised as on the Ceres path so both start alike.
       Eigen::Map<Eigen::Quaterniond>(vertices[i].x.data() + 3).normalize();
     }
-    problem.AddParameterBlock(vertices[i].x.data(), graph.ParameterSize(), manifold.get());
+    problem.AddParameterBlock(vertices[i].x.data(), graph.ParameterSize(),
+                              gauge.rotation_held[i] ? &held_rotation : manifold.get());
   }
   for (size_t i = 0; i < vertices.size(); ++i)
     if (held[i]) problem.SetParameterBlockConstant(vertices[i].x.data());

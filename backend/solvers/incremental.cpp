@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "cairn/graph/chi2.h"
+#include "cairn/solvers/determinacy.h"
 #include "cairn/solvers/graph_factors.h"
 #include "cairn/linear/serial_scope.h"
 #include "cairn/factors/pose_manifold.h"
@@ -35,6 +36,7 @@ IncrementalOptimizer::IncrementalOptimizer(int dimension, IncrementalOptions opt
     : graph_(dimension),
       options_(std::move(options)),
       manifold_(dimension == 2 ? factors::MakeSE2Manifold() : factors::MakeSE3Manifold()),
+      held_rotation_(std::make_unique<HeldRotationManifold>(manifold_.get(), dimension == 2 ? 2 : 3)),
       ceres_loss_(MakeLoss(options_.ceres.loop_closure_loss)),
       gn_loss_(MakeLoss(options_.gauss_newton.loop_closure_loss)) {
   std::string why;
@@ -90,7 +92,15 @@ void IncrementalOptimizer::PrepareVertex(Vertex& v) {
     Eigen::Map<Eigen::Quaterniond>(v.x.data() + 3).normalize();
 }
 
+ceres::Manifold* IncrementalOptimizer::ManifoldFor(size_t i) const {
+  if (graph_.vertices()[i].landmark) return nullptr;  // a point: no manifold
+  return i < gauge_.rotation_held.size() && gauge_.rotation_held[i] ? held_rotation_.get()
+                                                                     : manifold_.get();
+}
+
 void IncrementalOptimizer::SyncCeres() {
+  // The gauge may move: a prior or a FIX vertex added later frees it.
+  gauge_ = ComputeGauge(graph_);
   if (!ceres_) {
     ceres::Problem::Options po;
     po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
@@ -107,18 +117,20 @@ void IncrementalOptimizer::SyncCeres() {
       if (ceres_->HasParameterBlock(b)) continue;
       Vertex& v = graph_.vertex(e.from).x.data() == b ? graph_.vertex(e.from) : graph_.vertex(e.to);
       PrepareVertex(v);
-      ceres_->AddParameterBlock(b, graph_.BlockSize(v), v.landmark ? nullptr : manifold_.get());
+      ceres_->AddParameterBlock(b, graph_.BlockSize(v),
+                                v.landmark ? nullptr : ManifoldFor(graph_.VertexIndex(v.id)));
     }
     ceres::LossFunction* loss =
         e.kind == EdgeKind::kLoopClosure ? ceres_loss_.get() : nullptr;
     ceres_->AddResidualBlock(MakeCostFunction(graph_, e), loss, blocks);
   }
-  // The gauge may move: a prior or a FIX vertex added later frees it.
-  const std::vector<bool> held = HeldConstant(graph_);
+  const std::vector<bool>& held = gauge_.held;
   auto& vertices = graph_.vertices();
   for (size_t i = 0; i < vertices.size(); ++i) {
     double* x = vertices[i].x.data();
-    if (!ceres_->HasParameterBlock(x) || ceres_->IsParameterBlockConstant(x) == held[i]) continue;
+    if (!ceres_->HasParameterBlock(x)) continue;
+    if (ceres_->GetManifold(x) != ManifoldFor(i)) ceres_->SetManifold(x, ManifoldFor(i));
+    if (ceres_->IsParameterBlockConstant(x) == held[i]) continue;
     if (held[i]) {
       ceres_->SetParameterBlockConstant(x);
     } else {
@@ -129,6 +141,7 @@ void IncrementalOptimizer::SyncCeres() {
 
 void IncrementalOptimizer::SyncGaussNewton() {
   if (!gn_) gn_ = std::make_unique<GaussNewtonProblem>();
+  gauge_ = ComputeGauge(graph_);
   const auto& edges = graph_.edges();
   for (; gn_edges_ < edges.size(); ++gn_edges_) {
     const Edge& e = edges[gn_edges_];
@@ -138,7 +151,8 @@ void IncrementalOptimizer::SyncGaussNewton() {
       Vertex& v = graph_.vertex(id);
       // Re-adding a known block only re-sets its manifold: cheap, no lookup needed.
       PrepareVertex(v);
-      gn_->AddParameterBlock(v.x.data(), graph_.BlockSize(v), v.landmark ? nullptr : manifold_.get());
+      gn_->AddParameterBlock(v.x.data(), graph_.BlockSize(v),
+                             v.landmark ? nullptr : ManifoldFor(graph_.VertexIndex(id)));
       blocks.push_back(v.x.data());
     }
     ceres::LossFunction* loss = e.kind == EdgeKind::kLoopClosure && gn_loss_
@@ -146,10 +160,18 @@ void IncrementalOptimizer::SyncGaussNewton() {
                                     : nullptr;
     gn_->AddResidualBlock(MakeCostFunction(graph_, e), loss, blocks);
   }
-  const std::vector<bool> held = HeldConstant(graph_);
+  const std::vector<bool>& held = gauge_.held;
   const std::vector<bool> touched = TouchedVertices(graph_);
   auto& vertices = graph_.vertices();
   gn_held_.resize(vertices.size(), false);
+  gn_rotation_held_.resize(vertices.size(), false);
+  for (size_t i = 0; i < vertices.size(); ++i) {
+    if (!touched[i] || gn_rotation_held_[i] == gauge_.rotation_held[i]) continue;
+    // Another tangent size: the variables change, order afresh.
+    gn_->AddParameterBlock(vertices[i].x.data(), graph_.ParameterSize(), ManifoldFor(i));
+    gn_rotation_held_[i] = gauge_.rotation_held[i];
+    gn_reorder_ = true;
+  }
   for (size_t i = 0; i < vertices.size(); ++i) {
     if (!touched[i] || gn_held_[i] == held[i]) continue;
     // A vertex that changes between held and free changes the variables in

@@ -19,6 +19,7 @@
 #include "cairn/solvers/ceres_solver.h"
 #include "cairn/solvers/gauss_newton.h"
 #include "cairn/graph/pose_graph.h"
+#include "cairn/solvers/determinacy.h"
 #include "cairn/solvers/solve_result.h"
 
 namespace cairn {
@@ -99,10 +100,14 @@ class IncrementalOptimizer {
   void SyncCeres();
   void SyncGaussNewton();
   void PrepareVertex(Vertex& v);
+  // The manifold vertex i's block gets under gauge_ (its rotation held or not).
+  ceres::Manifold* ManifoldFor(size_t i) const;
 
   PoseGraph graph_;
   IncrementalOptions options_;
   std::unique_ptr<ceres::Manifold> manifold_;
+  std::unique_ptr<ceres::Manifold> held_rotation_;  // a rotation gauge's
+  GraphGauge gauge_;  // recomputed at each sync: edges may move it
   // Each solver's loss on loop closures (null: none), shared by its edges.
   std::unique_ptr<ceres::LossFunction> ceres_loss_;
   std::unique_ptr<ceres::LossFunction> gn_loss_;
@@ -113,6 +118,7 @@ class IncrementalOptimizer {
   std::unique_ptr<GaussNewtonProblem> gn_;
   size_t gn_edges_ = 0;
   std::vector<bool> gn_held_;  // per vertex, as last given to the GN problem
+  std::vector<bool> gn_rotation_held_;  // likewise
   std::vector<const double*> gn_ordering_;
   size_t gn_ordered_variables_ = 0;  // variables when the ordering was computed
   bool gn_reorder_ = true;

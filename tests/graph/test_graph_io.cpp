@@ -287,8 +287,9 @@ TEST(ReadG2oErrors, EveryKindOfBadInput) {
   ExpectError("VERTEX_SE2 -1 0 0 0\n", 1, "out of range");
   ExpectError("VERTEX_SE2 99999999999 0 0 0\n", 1, "out of range");
   ExpectError("VERTEX_SE2 1.5 0 0 0\n", 1, "expected a vertex id");
-  ExpectError(v01 + "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 -1\n", 3, "not positive definite");
-  ExpectError(v01 + "EDGE_SE2 0 1 1 0 0 1 5 0 1 0 1\n", 3, "not positive definite");
+  ExpectError(v01 + "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 -1\n", 3, "indefinite");
+  ExpectError(v01 + "EDGE_SE2 0 1 1 0 0 1 5 0 1 0 1\n", 3, "--repair-information");
+  ExpectError(v01 + "EDGE_SE2 0 1 1 0 0 0 0 0 0 0 0\n", 3, "information matrix is zero");
   ExpectError(v01 + "EDGE_SE2 0 7 1 0 0 1 0 0 1 0 1\n", 3, "vertex 7, which does not exist");
   ExpectError(v01 + "EDGE_SE2 1 1 1 0 0 1 0 0 1 0 1\n", 3, "to itself");
   ExpectError(v01 + "VERTEX_SE2 1 0 0 0\n", 3, "duplicate vertex id 1");

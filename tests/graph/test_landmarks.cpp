@@ -128,7 +128,9 @@ TEST(Landmarks, ReaderRefusesWrongSortsAndMissingOffsets) {
               3, "no PARAMS_SE3OFFSET");
   ExpectError("VERTEX_XY 1 0\n", 1, "needs 3 fields");
   ExpectError("VERTEX_SE2 0 0 0 0\nVERTEX_XY 1 0 0\nEDGE_SE2_XY 0 1 1 1 1 0 -1\n", 3,
-              "not positive definite");
+              "information matrix is indefinite");
+  // A singular observation (nothing along y) is taken, as for poses.
+  EXPECT_EQ(Parse("VERTEX_SE2 0 0 0 0\nVERTEX_XY 1 0 0\nEDGE_SE2_XY 0 1 1 1 1 0 0\n").edges().size(), 1u);
   ExpectError("VERTEX_SE2 0 0 0 0\nVERTEX_TRACKXYZ 1 0 0 0\n", 2, "cannot be mixed");
   // Without vertices, an id both pose and landmark.
   ExpectError("EDGE_SE2_XY 0 1 1 1 1 0 1\nEDGE_SE2 1 2 1 0 0 1 0 0 1 0 1\n", 2,

@@ -12,6 +12,7 @@
 
 #include "cairn/solvers/ceres_solver.h"
 #include "cairn/graph/chi2.h"
+#include "cairn/solvers/determinacy.h"
 #include "cairn/solvers/graph_factors.h"
 #include "cairn/solvers/graph_gauss_newton.h"
 #include "cairn/graph/graph_io.h"

@@ -224,8 +224,16 @@ class GraphBuilder {
     co.distance_penalty = 0.02;  // the prediction is what is in doubt
     co.runner_up_distance = 0.5;
     const IcpResult wide = MatchLocalMap(cloud, predicted, co, &cr);
-    const bool wide_better = Good(wide) && cr.runner_up_ratio < 0.95 &&
-                             (!narrow_good || wide.inlier_fraction > narrow.inlier_fraction + 0.05);
+    // The wide pose must beat the narrow one clearly, the more clearly the
+    // more right that one looked: repeated rooms and flipped corridors offer
+    // wrong poses that fit nearly as well. After a failed match the scan may
+    // see much the local map lacks, so the recent median does not apply.
+    const bool narrow_ok = Acceptable(narrow);
+    const bool doubted = !narrow_ok || at_edge;
+    const double margin = !narrow_ok ? 0.2 : at_edge ? 0.1 : 0.25;
+    const bool wide_better = (narrow_ok ? Good(wide) : Acceptable(wide)) &&
+                             cr.runner_up_ratio < (doubted ? 0.9 : 0.8) &&
+                             wide.inlier_fraction >= narrow.inlier_fraction + margin;
     // Below the recent median alone is a reason to look wider, not to drop
     // a match the plain test accepts.
     if (!wide_better) {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <deque>
+#include <optional>
 #include <iomanip>
 #include <memory>
 #include <ostream>
@@ -113,7 +115,8 @@ class GraphBuilder {
     const MapperStats& st = res_.stats;
     *progress_ << "map: scan " << scans_done << " of " << log_.scans.size() << ", "
                << res_.keyframes.size() << " keyframes, " << st.loop_accepted << " loop closures, "
-               << st.tracking_failures << " fell back to odometry, " << std::fixed
+               << st.recoveries << " recoveries, " << st.tracking_failures
+               << " fell back to odometry, " << std::fixed
                << std::setprecision(1) << Since(start_) << " s" << std::defaultfloat << "\n";
   }
 
@@ -163,35 +166,90 @@ class GraphBuilder {
     const double scale = OdometryScale();
     const SE2& inc = scan.odometry_increment;
     const SE2 predicted = current_ * SE2(scale * inc.x(), scale * inc.y(), inc.theta());
-    bool tracked = false;
-    if (cloud.size() >= 20) {
-      const IcpResult icp = MatchLocalMap(cloud, predicted);
-      if (icp.converged && icp.inlier_fraction >= o_.track_min_inliers) {
-        current_ = icp.pose;
-        *info = ToBodyFrame(icp.information, icp.pose);
-        tracked = true;
-        const double var_forward = info->inverse()(0, 0);
-        if (std::abs(inc.x()) > 0.1 && var_forward < 0.03 * 0.03) {
-          odo_num_ += inc.x() * prev.Between(current_).x();
-          odo_den_ += inc.x() * inc.x();
-        }
+    std::optional<IcpResult> match;
+    bool doubt = false;
+    if (cloud.size() >= 20) match = MatchOrRecover(cloud, predicted, &doubt);
+    if (match) {
+      current_ = match->pose;
+      *info = ToBodyFrame(match->information, match->pose);
+      const double var_forward = info->inverse()(0, 0);
+      if (std::abs(inc.x()) > 0.1 && var_forward < 0.03 * 0.03) {
+        odo_num_ += inc.x() * prev.Between(current_).x();
+        odo_den_ += inc.x() * inc.x();
       }
-    }
-    if (!tracked) {
+      recent_inliers_.push_back(match->inlier_fraction);
+      if (recent_inliers_.size() > 50) recent_inliers_.pop_front();
+    } else {
       current_ = predicted;
+      lost_since_keyframe_ |= doubt;
       ++res_.stats.tracking_failures;
     }
     path_ += prev.Between(current_).translation().norm();
     res_.stats.seconds_matching += Since(t0);
-    return tracked;
+    return match.has_value();
   }
 
-  IcpResult MatchLocalMap(const PointCloud& cloud, const SE2& predicted) const {
+  // A match to build on: it converged, and its inliers are not a sudden drop
+  // from what matches here have had lately.
+  bool Acceptable(const IcpResult& icp) const {
+    return icp.converged && icp.inlier_fraction >= o_.track_min_inliers;
+  }
+  bool Good(const IcpResult& icp) const {
+    if (!Acceptable(icp)) return false;
+    if (recent_inliers_.size() < 10) return true;
+    std::vector<double> v(recent_inliers_.begin(), recent_inliers_.end());
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return icp.inlier_fraction >= o_.track_relative_inliers * v[v.size() / 2];
+  }
+
+  // The match within the tracking window when it is good and not at the
+  // window's edge; else a wide search (every heading, +- 2 m) when it finds
+  // a better pose that is not ambiguous; else none: the odometry holds.
+  // *doubt: the scan disagreed with the odometry (its best pose at the
+  // window's edge) and nothing confirmed either.
+  std::optional<IcpResult> MatchOrRecover(const PointCloud& cloud, const SE2& predicted, bool* doubt) {
     CorrelativeOptions co;
     co.linear_window = o_.track_linear_window;
     co.angular_window = o_.track_angular_window;
+    CorrelativeResult cr;
+    const IcpResult narrow = MatchLocalMap(cloud, predicted, co, &cr);
+    const SE2 moved = predicted.Between(cr.pose);
+    const bool at_edge = std::abs(moved.theta()) > co.angular_window - 2 * co.angular_step ||
+                         moved.translation().cwiseAbs().maxCoeff() > co.linear_window - 0.1;
+    const bool narrow_good = Good(narrow);
+    if (narrow_good && !at_edge) return narrow;
+    ++res_.stats.wide_searches;
+    co.linear_window = o_.recovery_linear_window;
+    co.angular_window = M_PI;
+    co.distance_penalty = 0.02;  // the prediction is what is in doubt
+    co.runner_up_distance = 0.5;
+    const IcpResult wide = MatchLocalMap(cloud, predicted, co, &cr);
+    // The wide pose must beat the narrow one clearly, the more clearly the
+    // more right that one looked: repeated rooms and flipped corridors offer
+    // wrong poses that fit nearly as well. After a failed match the scan may
+    // see much the local map lacks, so the recent median does not apply.
+    const bool narrow_ok = Acceptable(narrow);
+    const bool doubted = !narrow_ok || at_edge;
+    const double margin = !narrow_ok ? 0.2 : at_edge ? 0.1 : 0.25;
+    const bool wide_better = (narrow_ok ? Good(wide) : Acceptable(wide)) &&
+                             cr.runner_up_ratio < (doubted ? 0.9 : 0.8) &&
+                             wide.inlier_fraction >= narrow.inlier_fraction + margin;
+    // Below the recent median alone is a reason to look wider, not to drop
+    // a match the plain test accepts.
+    if (!wide_better) {
+      if (Acceptable(narrow)) return narrow;
+      *doubt = at_edge;
+      return std::nullopt;
+    }
+    ++res_.stats.recoveries;
+    return wide;
+  }
+
+  IcpResult MatchLocalMap(const PointCloud& cloud, const SE2& predicted, const CorrelativeOptions& co,
+                          CorrelativeResult* cr_out) const {
     const CorrelativeResult cr =
         CorrelativeMatch(*local_->coarse, *local_->fine, SearchPoints(cloud), predicted, co);
+    *cr_out = cr;
     const PointCloud icp_cloud = Downsample(cloud, 0.05);
     IcpResult icp = IcpMatch(*local_->fine, icp_cloud, cr.pose, IcpOptions{});
     // ICP only polishes the search's answer. A long slide is a corridor
@@ -222,12 +280,16 @@ class GraphBuilder {
     e.z = ToParams(since);
     // The tracked pose fuses odometry and the scan match: the match pins
     // what the walls constrain, the odometry the rest (along a corridor).
-    const Eigen::Matrix3d info = match_info
-                                     ? Eigen::Matrix3d(*match_info + OdometryInformation(since))
-                                     : OdometryInformation(since);
+    Eigen::Matrix3d info = match_info
+                               ? Eigen::Matrix3d(*match_info + OdometryInformation(since))
+                               : OdometryInformation(since);
+    // A step the odometry alone made, tracking lost: a glitch in it must not
+    // become a confident edge, which loop closures could not bend back.
+    if (lost_since_keyframe_) info *= o_.lost_information_scale;
     e.information.topLeftCorner<3, 3>() = info;
     graph_.AddEdge(e);
-    res_.keyframes.push_back({i, path_, std::move(cloud)});
+    res_.keyframes.push_back({i, path_, std::move(cloud), lost_since_keyframe_});
+    lost_since_keyframe_ = false;
     scan_kf_[i] = K;
     return K;
   }
@@ -336,6 +398,8 @@ class GraphBuilder {
   const CarmenLog& log_;
   const MapperOptions& o_;
   std::ostream* progress_;
+  std::deque<double> recent_inliers_;  // of the last good matches
+  bool lost_since_keyframe_ = false;
   Clock::time_point start_ = Clock::now(), last_report_ = start_;
   MapResult res_;
   PoseGraph& graph_;

@@ -30,6 +30,17 @@ struct MapperOptions {
   double track_angular_window = 0.35;   // 20 degrees
   double track_min_inliers = 0.4;       // below: trust the odometry instead
   double track_max_slide = 0.15;        // metres ICP may move the search's pose
+  // A match is judged poor, and searched again wide, when its inlier
+  // fraction falls below this share of the recent matches' median, or when
+  // the search's best pose lies at the edge of its window (the scan's true
+  // pose is likely beyond: an odometry glitch, a slip, a bump).
+  double track_relative_inliers = 0.7;
+  // The wide search around the prediction: every heading, +- this many metres.
+  double recovery_linear_window = 2.0;
+  // When the wide search fails too, the step keeps the odometry with its
+  // information scaled by this (never a confident wrong edge), the keyframe
+  // stays out of the local map, and loop closures re-anchor it later.
+  double lost_information_scale = 0.01;
 
   double loop_min_travel = 8.0;         // metres of path between the two ends
   double loop_radius = 1.0;             // candidate radius at zero path...
@@ -57,10 +68,15 @@ struct KeyFrame {
   size_t scan = 0;
   double path = 0;   // metres travelled (tracked) from the start
   PointCloud cloud;  // robot frame
+  // Its pose came from the odometry alone, tracking lost: kept out of the
+  // local map, which it might have turned.
+  bool lost = false;
 };
 
 struct MapperStats {
   size_t loop_candidates = 0, loop_accepted = 0, optimizations = 0, tracking_failures = 0;
+  // Poor matches searched again wide, and those the wide search recovered.
+  size_t wide_searches = 0, recoveries = 0;
   double odometry_scale = 1;  // the factor learned for the odometry's translation
   double seconds_matching = 0, seconds_local_map = 0, seconds_loops = 0, seconds_optimizing = 0;
 };

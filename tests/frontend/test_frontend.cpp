@@ -449,14 +449,17 @@ PoseGraph SquareLoop() {
 // A drive through the room, as a corrected CARMEN log: ODOM lines at the
 // true poses (the chain restarts at each scan's pose), FLASER lines with
 // stamps repeated in pairs, as a log with too few digits has them.
-std::string RoomDriveLog(int scans, std::vector<SE2>* truth) {
+// With `glitch`, the odometry of step `glitch_at` is that much off.
+std::string RoomDriveLog(int scans, std::vector<SE2>* truth, int glitch_at = -1,
+                         const SE2& glitch = SE2()) {
   std::ostringstream log;
   log.precision(17);
   for (int i = 0; i < scans; ++i) {
     const SE2 pose(1.5 + 0.12 * i, 1.2 + 0.05 * i, 0.2 + 0.01 * i);
     truth->push_back(pose);
     const std::string stamp = std::to_string(100 + i / 2) + ".5";
-    log << "ODOM " << pose.x() << ' ' << pose.y() << ' ' << pose.theta() << " 0 0 0 " << stamp << " h "
+    const SE2 odom = i == glitch_at ? (*truth)[i - 1] * (*truth)[i - 1].Between(pose) * glitch : pose;
+    log << "ODOM " << odom.x() << ' ' << odom.y() << ' ' << odom.theta() << " 0 0 0 " << stamp << " h "
         << stamp << "\n";
     const LaserScan s = Render(Room(), pose);
     log << "FLASER " << s.ranges.size();
@@ -477,13 +480,35 @@ TEST(Mapper, ReportsProgressAsItWalksTheLog) {
   for (int i = 1; i <= 12; ++i)
     EXPECT_NE(progress.str().find("map: scan " + std::to_string(i) + " of 12, "), std::string::npos)
         << progress.str();
-  EXPECT_NE(progress.str().find(" keyframes, 0 loop closures, 0 fell back to odometry, "),
+  EXPECT_NE(progress.str().find(" keyframes, 0 loop closures, 0 recoveries, 0 fell back to odometry, "),
             std::string::npos)
       << progress.str();
   o.progress_interval_s = 1e9;
   std::ostringstream none;
   BuildPoseGraph(log, o, &none);
   EXPECT_EQ(none.str(), "");
+}
+
+// One odometry step 80 degrees and 40 cm off: the match at the tracking
+// window's edge is judged poor, the wide search finds the scan's pose, and
+// the rest of the drive is tracked in the right frame.
+TEST(Mapper, RecoversFromAnOdometryGlitch) {
+  for (const double heading : {80.0, -65.0}) {
+    std::vector<SE2> truth;
+    const SE2 glitch(0.3, -0.25, heading * M_PI / 180);
+    const CarmenLog log =
+        ReadCarmenLog(WriteTemp("cairn_glitch.log", RoomDriveLog(30, &truth, 12, glitch)));
+    const MapResult res = BuildPoseGraph(log, MapperOptions{});
+    EXPECT_GE(res.stats.recoveries, 1u);
+    EXPECT_GE(res.stats.wide_searches, res.stats.recoveries);
+    EXPECT_EQ(res.stats.tracking_failures, 0u);
+    const SE2 last_truth = truth.front().Between(truth.back());
+    const SE2 last_dr = res.dead_reckoning.back();
+    EXPECT_GT((last_dr.translation() - last_truth.translation()).norm(), 1.0);  // a real glitch
+    const SE2& last = res.scan_poses.back();
+    EXPECT_LT((last.translation() - last_truth.translation()).norm(), 0.05) << heading;
+    EXPECT_LT(std::abs(NormalizeAngle(last.theta() - last_truth.theta())), 0.02) << heading;
+  }
 }
 
 TEST(MapTool, WritesKeyframesByScanIndex) {

@@ -445,11 +445,34 @@ class Reader {
       CheckQuaternion(f, &e.z[3]);
       ReadUpperTriangle(f, 10, 6, &e.information);
       CheckInformation(f, &e.information, 6, Repairs());
+    } else if (tag == "EDGE_SE3_XYZPRIOR") {
+      e = TranslationPrior(f);
     } else {
       return false;
     }
     AddEdge(f, e);
     return true;
+  }
+
+  // EDGE_SE3_XYZPRIOR ID PARAM x y z info(6): g2o's error t - z, which is
+  // EDGE_SE3_PRIOR's with an identity rotation measured and no weight on
+  // rotation (the offset does not enter g2o's error): a position-only prior.
+  Edge TranslationPrior(const Fields& f) {
+    SetDimension(f, 3);
+    f.ExpectCount(11);
+    Edge e = Prior(f);
+    const int64_t param = f.Id(2);
+    if (offsets_.count(param) == 0)
+      f.Fail("EDGE_SE3_XYZPRIOR names parameter " + std::to_string(param) +
+             ", which no PARAMS_SE3OFFSET line defines");
+    e.z = {0, 0, 0, 0, 0, 0, 1};
+    for (int i = 0; i < 3; ++i) e.z[i] = f.Number(3 + i, "a translation");
+    Matrix6d t = Matrix6d::Zero();
+    ReadUpperTriangle(f, 6, 3, &t);
+    CheckInformation(f, &t, 3, Repairs());
+    e.information.setZero();
+    e.information.topLeftCorner<3, 3>() = t.topLeftCorner<3, 3>();
+    return e;
   }
 
   // PARAMS_SE3OFFSET and FIX.
@@ -657,8 +680,23 @@ void WriteVertex(const PoseGraph& graph, const Vertex& v, std::ostream& out) {
   out << '\n';
 }
 
+// A 3D prior that measures an identity rotation and weighs only the
+// translation: what EDGE_SE3_XYZPRIOR says, and written so.
+bool IsTranslationPrior(const PoseGraph& graph, const Edge& e) {
+  return graph.dimension() == 3 && e.kind == EdgeKind::kPrior && e.z[3] == 0 && e.z[4] == 0 &&
+         e.z[5] == 0 && e.z[6] == 1 && e.information.bottomRows<3>().isZero(0) &&
+         e.information.rightCols<3>().isZero(0);
+}
+
 void WriteEdge(const PoseGraph& graph, const Edge& e, int64_t prior_id, std::ostream& out) {
   const bool planar = graph.dimension() == 2;
+  if (IsTranslationPrior(graph, e)) {
+    out << "EDGE_SE3_XYZPRIOR " << e.from << ' ' << prior_id;
+    WriteNumbers(out, e.z.data(), 3);
+    WriteUpperTriangle(out, e.information, 3);
+    out << '\n';
+    return;
+  }
   switch (e.kind) {
     case EdgeKind::kPrior:
       out << (planar ? "EDGE_PRIOR_SE2 " : "EDGE_SE3_PRIOR ") << e.from;

@@ -246,6 +246,30 @@ TEST(WriteToro, SharedFilesReadBackToTheSameChi2) {
   }
 }
 
+// g2o's EdgeSE3XYZPrior: error t - z on the translation alone (a GPS fix).
+TEST(ReadG2o, TranslationPriorIsAPositionOnlyPrior) {
+  const std::string text =
+      "VERTEX_SE3:QUAT 0 1 2 3 0 0 0.38268343236508978 0.92387953251128674\n"
+      "PARAMS_SE3OFFSET 7 0 0 0 0 0 0 1\n"
+      "EDGE_SE3_XYZPRIOR 0 7 1.5 2 2 4 1 0 9 0 16\n";
+  const PoseGraph g = Parse(text);
+  ASSERT_EQ(g.edges().size(), 1u);
+  const Edge& e = g.edges()[0];
+  EXPECT_EQ(e.kind, EdgeKind::kPrior);
+  EXPECT_TRUE((e.information.bottomRightCorner<3, 3>().isZero(0)));
+  // e = (-0.5, 0, 1): 4 * 0.25 + 2 * (-0.5 * 0) * 1 + 9 * 0 + 16 * 1, whatever the rotation.
+  EXPECT_NEAR(Chi2(g), 4 * 0.25 + 16, 1e-12);
+  std::ostringstream out;
+  WriteG2o(g, out);
+  EXPECT_NE(out.str().find("EDGE_SE3_XYZPRIOR 0 7 1.5 2 2 4 1 0 9 0 16\n"), std::string::npos)
+      << out.str();
+  EXPECT_EQ(Chi2(Parse(out.str())), Chi2(g));
+  ExpectError("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nEDGE_SE3_XYZPRIOR 0 3 1 2 3 1 0 0 1 0 1\n", 2,
+              "no PARAMS_SE3OFFSET");
+  ExpectError("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nPARAMS_SE3OFFSET 0 0 0 0 0 0 0 1\n"
+              "EDGE_SE3_XYZPRIOR 0 0 1 2 3 1 0 0 1 0\n", 3, "");
+}
+
 TEST(ReadG2o, EdgesOnlyGetVerticesFromSpanningTree) {
   const PoseGraph g = Parse(
       "EDGE_SE2 5 6 1 0 1.5707963267948966 1 0 0 1 0 1\n"

@@ -24,23 +24,16 @@ bool OccupancyGrid::Cell(const Eigen::Vector2d& p, int* cx, int* cy) const {
   return *cx >= 0 && *cy >= 0 && *cx < w_ && *cy < h_;
 }
 
-void OccupancyGrid::AddBeam(const Eigen::Vector2d& origin, const Eigen::Vector2d& end, bool hit) {
-  int x0, y0, x1, y1;
-  Cell(origin, &x0, &y0);
-  Cell(end, &x1, &y1);
-  // Bresenham from the sensor to the end cell, the end cell excluded.
+namespace {
+
+// Bresenham: every cell from (x0, y0) on towards (x1, y1), that one excluded.
+template <typename Visit>
+void WalkCells(int x0, int y0, int x1, int y1, Visit visit) {
   const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
   const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
   int err = dx + dy, x = x0, y = y0;
-  auto update = [&](int cx, int cy, float delta) {
-    if (cx < 0 || cy < 0 || cx >= w_ || cy >= h_) return;
-    const size_t i = static_cast<size_t>(cy) * w_ + cx;
-    lo_[i] = std::clamp(lo_[i] + delta, static_cast<float>(-o_.clamp), static_cast<float>(o_.clamp));
-    known_[i] = 1;
-  };
-  const float miss = static_cast<float>(o_.log_odds_miss);
   while (x != x1 || y != y1) {
-    update(x, y, miss);
+    visit(x, y);
     const int e2 = 2 * err;
     if (e2 >= dy) {
       err += dy;
@@ -51,33 +44,34 @@ void OccupancyGrid::AddBeam(const Eigen::Vector2d& origin, const Eigen::Vector2d
       y += sy;
     }
   }
-  update(x1, y1, hit ? static_cast<float>(o_.log_odds_hit) : miss);
+}
+
+}  // namespace
+
+void OccupancyGrid::Add(int cx, int cy, float delta) {
+  if (cx < 0 || cy < 0 || cx >= w_ || cy >= h_) return;
+  const size_t i = static_cast<size_t>(cy) * w_ + cx;
+  lo_[i] = std::clamp(lo_[i] + delta, static_cast<float>(-o_.clamp), static_cast<float>(o_.clamp));
+  known_[i] = 1;
+}
+
+void OccupancyGrid::AddBeam(const Eigen::Vector2d& origin, const Eigen::Vector2d& end, bool hit) {
+  int x0, y0, x1, y1;
+  Cell(origin, &x0, &y0);
+  Cell(end, &x1, &y1);
+  const float miss = static_cast<float>(o_.log_odds_miss);
+  WalkCells(x0, y0, x1, y1, [&](int x, int y) { Add(x, y, miss); });
+  Add(x1, y1, hit ? static_cast<float>(o_.log_odds_hit) : miss);
 }
 
 void OccupancyGrid::AddWall(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   int x0, y0, x1, y1;
   Cell(a, &x0, &y0);
   Cell(b, &x1, &y1);
-  if (x0 == x1 && y0 == y1) return;
-  const int dx = std::abs(x1 - x0), dy = -std::abs(y1 - y0);
-  const int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1;
-  int err = dx + dy, x = x0, y = y0;
   const float hit = static_cast<float>(o_.log_odds_hit);
-  for (;;) {
-    const int e2 = 2 * err;
-    if (e2 >= dy) {
-      err += dy;
-      x += sx;
-    }
-    if (e2 <= dx) {
-      err += dx;
-      y += sy;
-    }
-    if ((x == x1 && y == y1) || x < 0 || y < 0 || x >= w_ || y >= h_) return;
-    const size_t i = static_cast<size_t>(y) * w_ + x;
-    lo_[i] = std::clamp(lo_[i] + hit, static_cast<float>(-o_.clamp), static_cast<float>(o_.clamp));
-    known_[i] = 1;
-  }
+  WalkCells(x0, y0, x1, y1, [&](int x, int y) {
+    if (x != x0 || y != y0) Add(x, y, hit);
+  });
 }
 
 double OccupancyGrid::Probability(int cx, int cy) const {

@@ -57,6 +57,9 @@ class OccupancyGrid {
   std::string Yaml(const std::string& image_file) const;
 
  private:
+  // One cell's log-odds by `delta`, clamped; cells outside the grid are skipped.
+  void Add(int cx, int cy, float delta);
+
   GridOptions o_;
   Eigen::Vector2d origin_;
   int w_, h_;

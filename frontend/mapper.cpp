@@ -288,7 +288,7 @@ class GraphBuilder {
     if (lost_since_keyframe_) info *= o_.lost_information_scale;
     e.information.topLeftCorner<3, 3>() = info;
     graph_.AddEdge(e);
-    res_.keyframes.push_back({i, path_, std::move(cloud), lost_since_keyframe_});
+    res_.keyframes.push_back({i, path_, std::move(cloud)});
     lost_since_keyframe_ = false;
     scan_kf_[i] = K;
     return K;

@@ -37,9 +37,10 @@ struct MapperOptions {
   double track_relative_inliers = 0.7;
   // The wide search around the prediction: every heading, +- this many metres.
   double recovery_linear_window = 2.0;
-  // When the wide search fails too, the step keeps the odometry with its
-  // information scaled by this (never a confident wrong edge), the keyframe
-  // stays out of the local map, and loop closures re-anchor it later.
+  // When the wide search fails too and the scan disputed the odometry (its
+  // best pose at the window's edge), the step keeps the odometry with its
+  // information scaled by this (never a confident wrong edge), and loop
+  // closures re-anchor it later.
   double lost_information_scale = 0.01;
 
   double loop_min_travel = 8.0;         // metres of path between the two ends
@@ -68,9 +69,6 @@ struct KeyFrame {
   size_t scan = 0;
   double path = 0;   // metres travelled (tracked) from the start
   PointCloud cloud;  // robot frame
-  // Its pose came from the odometry alone, tracking lost: kept out of the
-  // local map, which it might have turned.
-  bool lost = false;
 };
 
 struct MapperStats {

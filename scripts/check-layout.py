@@ -23,8 +23,8 @@ from collections import defaultdict
 # lower rank, or to its own; robust and calibration stand side by side.
 AREAS = {
     "factors": ("factors", 0),
-    "backend/graph": ("graph", 1),
-    "backend/linear": ("linear", 2),
+    "backend/linear": ("linear", 1),
+    "backend/graph": ("graph", 2),
     "backend/solvers": ("solvers", 3),
     "backend/robust": ("robust", 4),
     "backend/calibration": ("calibration", 4),

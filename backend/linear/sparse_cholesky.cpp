@@ -169,7 +169,7 @@ class Cholmod final : public SparseCholesky {
     b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, common_.get());
   }
 
-  // AMD on the block graph (or the given block ordering), postordered and
+  // A fill-reducing order of the block graph (or the given block ordering), postordered and
   // expanded to scalars; empty when not blocked.
   std::vector<int> ScalarOrdering(int n, const std::vector<int>& col_ptr,
                                   const std::vector<int>& rows,
@@ -178,7 +178,7 @@ class Cholmod final : public SparseCholesky {
     const BlockPattern pattern = MakeBlockPattern(n, col_ptr, rows, block_sizes);
     std::vector<int> order = given_;
     if (static_cast<int>(order.size()) != pattern.blocks())
-      order = AmdBlockOrder(pattern, common_.get());
+      order = FillReducingBlockOrder(pattern, common_.get());
     if (order.empty()) return {};
     used_ = Postordered(order, pattern);
     return ExpandBlocks(used_, pattern);

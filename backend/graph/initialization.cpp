@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
@@ -39,6 +40,13 @@ std::vector<bool> ComponentRoots(const PoseGraph& graph) {
 // Blocks of at most 3x3 (3 right-hand sides), kept on the stack: the
 // chordal step builds a few of them per edge.
 using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>;
+
+// A factorisation kept from one system to the next while the pattern, kept
+// beside it, stays the same.
+struct SharedCholesky {
+  std::unique_ptr<SparseCholesky> factor;
+  std::vector<int> col_ptr, rows;
+};
 
 // A sparse symmetric system over blocks of size d, with some blocks known
 // (anchored): their terms move to the right-hand side. `rhs_columns`
@@ -77,9 +85,11 @@ class BlockSystem {
   void Reserve(size_t residuals) { triplets_.reserve(residuals * 3 * d_ * d_); }
 
   // Solves and returns the unknown blocks (by vertex index; anchored: empty).
-  // CHOLMOD with the block ordering, as the Gauss-Newton path factorises:
-  // Eigen's simplicial LDL^T took a minute on a million poses.
-  std::vector<Block> Solve() {
+  // CHOLMOD with the block ordering, as the Gauss-Newton path factorises.
+  // Both stages' systems have the same pattern (every edge between poses,
+  // whole blocks): the analysis, most of the cost on large graphs, is made
+  // once in `*cholesky` and kept for the next system.
+  std::vector<Block> Solve(SharedCholesky* cholesky) {
     const int size = n_ * d_;
     std::vector<Block> out(index_.size());
     if (size == 0) return out;
@@ -87,15 +97,19 @@ class BlockSystem {
     h.setFromTriplets(triplets_.begin(), triplets_.end());
     triplets_ = {};
     h.makeCompressed();
-    const std::vector<int> col_ptr(h.outerIndexPtr(), h.outerIndexPtr() + size + 1);
-    const std::vector<int> rows(h.innerIndexPtr(), h.innerIndexPtr() + h.nonZeros());
-    auto cholesky = SparseCholesky::Create(Factorization::kSupernodalOrSimplicial);
-    cholesky->Analyze(size, col_ptr, rows, std::vector<int>(n_, d_));
-    std::copy(h.valuePtr(), h.valuePtr() + h.nonZeros(), cholesky->values());
-    if (!cholesky->Factorize())
+    std::vector<int> col_ptr(h.outerIndexPtr(), h.outerIndexPtr() + size + 1);
+    std::vector<int> rows(h.innerIndexPtr(), h.innerIndexPtr() + h.nonZeros());
+    if (!cholesky->factor || col_ptr != cholesky->col_ptr || rows != cholesky->rows) {
+      cholesky->factor = SparseCholesky::Create(Factorization::kSupernodalOrSimplicial);
+      cholesky->factor->Analyze(size, col_ptr, rows, std::vector<int>(n_, d_));
+      cholesky->col_ptr = std::move(col_ptr);
+      cholesky->rows = std::move(rows);
+    }
+    std::copy(h.valuePtr(), h.valuePtr() + h.nonZeros(), cholesky->factor->values());
+    if (!cholesky->factor->Factorize())
       throw std::runtime_error("chordal initialisation: singular linear system");
     Eigen::MatrixXd x(size, b_.cols());
-    for (Eigen::Index c = 0; c < b_.cols(); ++c) cholesky->Solve(b_.col(c).data(), x.col(c).data());
+    for (Eigen::Index c = 0; c < b_.cols(); ++c) cholesky->factor->Solve(b_.col(c).data(), x.col(c).data());
     if (!x.allFinite()) throw std::runtime_error("chordal initialisation: no finite solution");
     for (size_t v = 0; v < index_.size(); ++v)
       if (index_[v] >= 0) out[v] = x.middleRows(static_cast<Eigen::Index>(index_[v]) * d_, d_);
@@ -130,7 +144,8 @@ Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& m) {
 // a_j - Z^T a_i, all d columns at once. Returns each free vertex's solved
 // R^T (not yet a rotation); anchored ones keep `rot`.
 std::vector<Block> RelaxedRotations(const PoseGraph& graph, const std::vector<bool>& anchored,
-                                    const std::vector<Block>& rot) {
+                                    const std::vector<Block>& rot,
+                                    SharedCholesky* cholesky) {
   const size_t n = anchored.size();
   const bool planar = graph.dimension() == 2;
   const int d = planar ? 2 : 3;
@@ -153,7 +168,7 @@ std::vector<Block> RelaxedRotations(const PoseGraph& graph, const std::vector<bo
     }
     rs.AddResidual(i, -z.transpose(), j, identity, Block::Zero(d, d), w * identity, known);
   }
-  return rs.Solve();
+  return rs.Solve(cholesky);
 }
 
 // The second stage: each free vertex's relaxed matrix back onto a rotation,
@@ -176,7 +191,8 @@ void ProjectOntoRotations(const std::vector<Block>& relaxed, const std::vector<b
 // R_i t_z, weighed by (R_i R_z) Omega_t (R_i R_z)^T, the translation error's
 // information. Free vertices' translations are replaced.
 void SolveTranslations(const PoseGraph& graph, const std::vector<bool>& anchored,
-                       const std::vector<Block>& rot, std::vector<Block>* trans) {
+                       const std::vector<Block>& rot, SharedCholesky* cholesky,
+                       std::vector<Block>* trans) {
   const bool planar = graph.dimension() == 2;
   const int d = planar ? 2 : 3;
   BlockSystem ts(anchored, d, 1);
@@ -197,7 +213,7 @@ void SolveTranslations(const PoseGraph& graph, const std::vector<bool>& anchored
     const Block w = q * e.information.topLeftCorner(d, d) * q.transpose();
     ts.AddResidual(i, -identity, j, identity, rot[i] * tz, w, *trans);
   }
-  const auto solved = ts.Solve();
+  const auto solved = ts.Solve(cholesky);
   for (size_t i = 0; i < anchored.size(); ++i)
     if (!anchored[i]) (*trans)[i] = solved[i];
 }
@@ -263,8 +279,9 @@ void InitializeChordal(PoseGraph& graph) {
     }
   }
 
-  ProjectOntoRotations(RelaxedRotations(graph, anchored, rot), anchored, planar, &rot);
-  SolveTranslations(graph, anchored, rot, &trans);
+  SharedCholesky cholesky;
+  ProjectOntoRotations(RelaxedRotations(graph, anchored, rot, &cholesky), anchored, planar, &rot);
+  SolveTranslations(graph, anchored, rot, &cholesky, &trans);
 
   for (size_t i = 0; i < n; ++i) {
     if (anchored[i]) continue;

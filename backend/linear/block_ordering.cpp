@@ -66,12 +66,13 @@ cholmod_sparse* BlockGraph(const BlockPattern& pattern, cholmod_common* common) 
   return graph;
 }
 
-std::vector<int> FillReducingBlockOrder(const BlockPattern& pattern, cholmod_common* common) {
+std::vector<int> FillReducingBlockOrder(const BlockPattern& pattern, cholmod_common* common,
+                                        int nested_dissection_min_blocks) {
   cholmod_sparse* graph = BlockGraph(pattern, common);
   if (!graph) return {};
   std::vector<int> order(pattern.blocks());
   int ok = cholmod_amd(graph, nullptr, 0, order.data(), common);
-  if (ok && pattern.blocks() >= kNestedDissectionMinBlocks) {
+  if (ok && pattern.blocks() >= nested_dissection_min_blocks) {
     std::vector<int> nd(pattern.blocks());
     if (cholmod_metis(graph, nullptr, 0, /*postorder=*/0, nd.data(), common)) {
       const double amd_flops = BlockFactorFlops(graph, &order, common);

@@ -1,0 +1,91 @@
+#include "cairn/linear/cholesky_update.h"
+
+#include <cholmod.h>
+
+#include "cairn/linear/cholmod_common.h"
+
+namespace cairn {
+namespace {
+
+// A view of caller-owned compressed columns as CHOLMOD's matrix: nothing
+// is copied, CHOLMOD only reads it.
+cholmod_sparse View(int nrow, int ncol, const std::vector<int>& col_ptr,
+                    const std::vector<int>& rows, const std::vector<double>& values, int stype) {
+  cholmod_sparse a{};
+  a.nrow = static_cast<size_t>(nrow);
+  a.ncol = static_cast<size_t>(ncol);
+  a.nzmax = rows.size();
+  a.p = const_cast<int*>(col_ptr.data());
+  a.i = const_cast<int*>(rows.data());
+  a.x = const_cast<double*>(values.data());
+  a.stype = stype;
+  a.itype = CHOLMOD_INT;
+  a.xtype = CHOLMOD_REAL;
+  a.dtype = CHOLMOD_DOUBLE;
+  a.sorted = 1;
+  a.packed = 1;
+  return a;
+}
+
+}  // namespace
+
+UpdatableCholesky::UpdatableCholesky() : common_(std::make_unique<CholmodCommon>()) {}
+
+UpdatableCholesky::~UpdatableCholesky() {
+  if (factor_) cholmod_free_factor(&factor_, common_->get());
+}
+
+int UpdatableCholesky::n() const { return factor_ ? static_cast<int>(factor_->n) : 0; }
+const int* UpdatableCholesky::Lp() const { return static_cast<const int*>(factor_->p); }
+const int* UpdatableCholesky::Li() const { return static_cast<const int*>(factor_->i); }
+const int* UpdatableCholesky::Lnz() const { return static_cast<const int*>(factor_->nz); }
+const double* UpdatableCholesky::Lx() const { return static_cast<const double*>(factor_->x); }
+double UpdatableCholesky::Pivot(int j) const { return Lx()[Lp()[j]]; }
+int UpdatableCholesky::BelowCount(int j) const { return Lnz()[j] - 1; }
+const int* UpdatableCholesky::BelowRows(int j) const { return Li() + Lp()[j] + 1; }
+const double* UpdatableCholesky::BelowValues(int j) const { return Lx() + Lp()[j] + 1; }
+
+bool UpdatableCholesky::Factorize(int n, const std::vector<int>& col_ptr,
+                                  const std::vector<int>& rows,
+                                  const std::vector<double>& values) {
+  if (factor_) cholmod_free_factor(&factor_, common_->get());
+  // The caller's order is the elimination order (unknowns it will append
+  // to are placed last by it), and cholmod_updown needs the simplicial
+  // LDL' form.
+  (*common_)->nmethods = 1;
+  (*common_)->method[0].ordering = CHOLMOD_NATURAL;
+  (*common_)->postorder = 0;
+  (*common_)->supernodal = CHOLMOD_SIMPLICIAL;
+  (*common_)->final_ll = 0;
+  cholmod_sparse a = View(n, n, col_ptr, rows, values, /*stype=*/1);
+  factor_ = cholmod_analyze(&a, common_->get());
+  if (!factor_) return false;
+  if (!cholmod_factorize(&a, factor_, common_->get()) || (*common_)->status != CHOLMOD_OK ||
+      factor_->minor < factor_->n) {
+    cholmod_free_factor(&factor_, common_->get());
+    return false;
+  }
+  // LDL' goes through an indefinite matrix without complaint: its pivots say.
+  for (int j = 0; j < n; ++j)
+    if (!(Pivot(j) > 0)) {
+      cholmod_free_factor(&factor_, common_->get());
+      return false;
+    }
+  return true;
+}
+
+bool UpdatableCholesky::Modify(bool update, int k, const std::vector<int>& col_ptr,
+                               const std::vector<int>& rows, const std::vector<double>& values) {
+  if (!factor_ || k == 0) return factor_ != nullptr;
+  cholmod_sparse c = View(n(), k, col_ptr, rows, values, /*stype=*/0);
+  return cholmod_updown(update ? 1 : 0, &c, factor_, common_->get()) != 0;
+}
+
+long UpdatableCholesky::NonZeros() const {
+  if (!factor_) return 0;
+  long nnz = 0;
+  for (size_t j = 0; j < factor_->n; ++j) nnz += Lnz()[j];
+  return nnz;
+}
+
+}  // namespace cairn

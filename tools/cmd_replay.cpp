@@ -22,7 +22,22 @@ struct ReplayArgs {
   std::string in, json, solver = "gn";
   int every = 1;
   bool quiet = false, full = false;
+  PartialUpdateOptions partial;
+  double fill_bound = 0, relinearize_budget = 0;
 };
+
+void DeclarePartialOptions(ArgParser& args, ReplayArgs& a) {
+  args.Option("relinearize-threshold", &a.partial.relinearize_threshold, "X",
+              "gn: re-linearise a pose's edges once its step exceeds X (m, rad)");
+  args.Option("wildfire-threshold", &a.partial.wildfire_threshold, "X",
+              "gn: stop solving again below a step that changed by no more than X");
+  args.Option("relinearize-budget", &a.relinearize_budget, "N",
+              "gn: factor entries one update may spend re-linearising");
+  args.Option("reserve-poses", &a.partial.reserve_poses, "N",
+              "gn: poses the factor has room for before a fresh factorisation");
+  args.Option("fill-bound", &a.fill_bound, "N",
+              "gn: factor entries gained before a fresh ordering and factorisation");
+}
 
 // One stderr line every few seconds: a 100,000-pose replay takes minutes.
 class Progress {
@@ -96,8 +111,18 @@ int RunReplay(int argc, char** argv) {
   args.Flag("full", &a.full, "gn: re-solve the whole graph at each step (Optimize) rather "
             "than update it partially");
   args.Flag("quiet", &a.quiet, "no progress lines");
+  a.fill_bound = static_cast<double>(a.partial.fill_bound);
+  a.relinearize_budget = static_cast<double>(a.partial.relinearize_budget);
+  DeclarePartialOptions(args, a);
   int code = 0;
   if (!args.Parse(argc, argv, &code)) return code;
+  a.partial.fill_bound = static_cast<long>(a.fill_bound);
+  a.partial.relinearize_budget = static_cast<long>(a.relinearize_budget);
+  std::string why;
+  if (!a.partial.IsValid(&why)) {
+    PrintError(why);
+    return 2;
+  }
   SolverKind kind;
   try {
     kind = ParseSolverKind(a.solver);
@@ -118,6 +143,7 @@ int RunReplay(int argc, char** argv) {
   RequireNoLandmarks(graph, "cairn replay");
   ReplayOptions o;
   o.every = a.every;
+  o.incremental.partial = a.partial;
   o.mode = kind == SolverKind::kCeres ? ReplayMode::kCeres
           : a.full        ? ReplayMode::kGaussNewton
                           : ReplayMode::kPartial;

@@ -50,19 +50,31 @@ bool UpdatableCholesky::Factorize(int n, const std::vector<int>& col_ptr,
                                   const std::vector<double>& values) {
   if (factor_) cholmod_free_factor(&factor_, common_->get());
   // The caller's order is the elimination order (unknowns it will append
-  // to are placed last by it), and cholmod_updown needs the simplicial
-  // LDL' form.
-  (*common_)->nmethods = 1;
-  (*common_)->method[0].ordering = CHOLMOD_NATURAL;
-  (*common_)->postorder = 0;
-  (*common_)->supernodal = CHOLMOD_SIMPLICIAL;
-  (*common_)->final_ll = 0;
+  // to are placed last by it). The supernodal method factorises it several
+  // times faster than the simplicial one (3D: 6x6 blocks, dense fronts), and
+  // its factor is then turned into the simplicial LDL' form that
+  // cholmod_updown modifies. CHOLMOD's own relaxation: the zeros the
+  // coarser supernodes of CholmodCommon add would be entries each update
+  // passes.
+  cholmod_common* c = common_->get();
+  c->nmethods = 1;
+  c->method[0].ordering = CHOLMOD_NATURAL;
+  c->postorder = 0;
+  c->supernodal = CHOLMOD_SUPERNODAL;
+  c->nrelax[0] = 4;
+  c->nrelax[1] = 16;
+  c->nrelax[2] = 48;
+  c->zrelax[0] = 0.8;
+  c->zrelax[1] = 0.1;
+  c->zrelax[2] = 0.05;
   cholmod_sparse a = View(n, n, col_ptr, rows, values, /*stype=*/1);
-  factor_ = cholmod_analyze(&a, common_->get());
+  factor_ = cholmod_analyze(&a, c);
   if (!factor_) return false;
-  if (!cholmod_factorize(&a, factor_, common_->get()) || (*common_)->status != CHOLMOD_OK ||
-      factor_->minor < factor_->n) {
-    cholmod_free_factor(&factor_, common_->get());
+  if (!cholmod_factorize(&a, factor_, c) || c->status != CHOLMOD_OK ||
+      factor_->minor < factor_->n ||
+      !cholmod_change_factor(CHOLMOD_REAL, /*to_ll=*/0, /*to_super=*/0, /*to_packed=*/1,
+                             /*to_monotonic=*/1, factor_, c)) {
+    cholmod_free_factor(&factor_, c);
     return false;
   }
   // LDL' goes through an indefinite matrix without complaint: its pivots say.

@@ -1,6 +1,7 @@
 #include "cairn/solvers/incremental_partial.h"
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <chrono>
@@ -80,18 +81,21 @@ void PartialUpdater::Linearize(size_t e) {
   const int nb = edge.IsPrior() ? 1 : 2;
   const double* params[2] = {LinPoint(graph_->VertexIndex(edge.from)), nullptr};
   if (nb == 2) params[1] = LinPoint(graph_->VertexIndex(edge.to));
-  RowMatrix ambient[2] = {RowMatrix(d_, p_), RowMatrix(d_, p_)};
-  double* jacobians[2] = {ambient[0].data(), ambient[1].data()};
-  Eigen::VectorXd r(d_);
-  if (!cost_[e]->Evaluate(params, r.data(), jacobians))
+  // Room for the largest pose blocks (3D: 6 x 7 ambient, 7 x 6 plus): no
+  // allocation per edge, which re-linearising thousands at once would pay.
+  double ambient[2][6 * 7], plus[7 * 6], residual[6];
+  double* jacobians[2] = {ambient[0], ambient[1]};
+  if (!cost_[e]->Evaluate(params, residual, jacobians))
     throw std::runtime_error("an edge's residual could not be evaluated");
   Eigen::Map<RowMatrix> j(&jr_[e * stride_], d_, 2 * d_);
   j.setZero();
-  RowMatrix plus(p_, d_);
   for (int k = 0; k < nb; ++k) {
-    manifold_->PlusJacobian(params[k], plus.data());
-    j.middleCols(k * d_, d_) = ambient[k] * plus;
+    manifold_->PlusJacobian(params[k], plus);
+    j.middleCols(k * d_, d_).noalias() = Eigen::Map<const RowMatrix>(ambient[k], d_, p_) *
+                                         Eigen::Map<const RowMatrix>(plus, p_, d_);
   }
+  Eigen::Map<Eigen::VectorXd> r(&jr_[e * stride_ + 2 * d_ * d_], d_);
+  r = Eigen::Map<const Eigen::VectorXd>(residual, d_);
   // A robust loss enters as its weight at the linearisation point (IRLS):
   // re-linearising the edge re-weights it.
   if (loop_loss_ && edge.kind == EdgeKind::kLoopClosure) {
@@ -101,7 +105,6 @@ void PartialUpdater::Linearize(size_t e) {
     j *= w;
     r *= w;
   }
-  Eigen::Map<Eigen::VectorXd>(&jr_[e * stride_ + 2 * d_ * d_], d_) = r;
 }
 
 void PartialUpdater::AppendColumns(size_t e, Columns* c) const {
@@ -124,6 +127,11 @@ void PartialUpdater::AppendColumns(size_t e, Columns* c) const {
     c->Push(rhs_, r[t]);
     c->Close();
   }
+}
+
+// The factors invert quaternions by conjugation, right only for unit ones.
+void PartialUpdater::NormalizeRotation(Vertex& v) const {
+  if (d_ == 6) Eigen::Map<Eigen::Quaterniond>(v.x.data() + 3).normalize();
 }
 
 int PartialUpdater::Find(int v) {
@@ -251,7 +259,9 @@ void PartialUpdater::PlaceVariables(const std::vector<bool>& held) {
   }
   const std::vector<int> order = RecentLastOrder(m, neighbours);
   used_ = m;
-  cap_ = m + reserve_;
+  // Room in proportion to the graph too: a fresh factorisation costs what
+  // the graph holds, and is then paid once per that many poses.
+  cap_ = m + std::max(reserve_, m / 20);
   n_ = cap_ * d_;
   rhs_ = n_;
   slot_.assign(nv, -1);
@@ -312,7 +322,10 @@ bool PartialUpdater::Rebuild(UpdateResult* out) {
   const size_t nv = vertices.size(), ne = graph_->edges().size();
   // The linearisation points: the estimate as it stands.
   x0_.resize(nv * p_);
-  for (size_t v = 0; v < nv; ++v) std::copy_n(vertices[v].x.data(), p_, &x0_[v * p_]);
+  for (size_t v = 0; v < nv; ++v) {
+    NormalizeRotation(graph_->vertices()[v]);
+    std::copy_n(vertices[v].x.data(), p_, &x0_[v * p_]);
+  }
   edges_of_.assign(nv, {});
   for (size_t e = 0; e < ne; ++e) AddEdgeToState(e);
   ComputeComponents();
@@ -411,6 +424,7 @@ void PartialUpdater::TakeInNewEdges(Columns* up, Columns* down, UpdateResult* ou
       if (slot_[v] != -1) continue;
       slot_[v] = used_;
       vertex_at_[used_] = static_cast<int>(v);
+      NormalizeRotation(vertices[v]);
       std::copy_n(vertices[v].x.data(), p_, &x0_[v * p_]);
       for (int c = 0; c < d_; ++c) {
         delta_[used_ * d_ + c] = 0;

@@ -41,8 +41,9 @@ struct PartialUpdateOptions {
   // step changed by no more than this (iSAM2's wildfire threshold); 0
   // solves every unknown the change reaches.
   double wildfire_threshold = 1e-3;
-  // Poses the factor has room for beyond those it holds; a fresh ordering
-  // and factorisation when they are used up.
+  // Poses the factor has room for beyond those it holds (at least this
+  // many, and a twentieth of those it holds); a fresh ordering and
+  // factorisation when they are used up.
   int reserve_poses = 500;
   // Entries the factor may gain (fill from loop closures through the
   // appended poses) before a fresh ordering and factorisation.
@@ -95,6 +96,7 @@ class PartialUpdater {
   void ComputeComponents();
   bool TakeInGauge(const Edge& e);
   int Find(int v);
+  void NormalizeRotation(Vertex& v) const;
   void Linearize(size_t e);
   void AppendColumns(size_t e, Columns* c) const;
   void AddEdgeToState(size_t e);

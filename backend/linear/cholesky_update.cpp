@@ -35,20 +35,19 @@ UpdatableCholesky::~UpdatableCholesky() {
   if (factor_) cholmod_free_factor(&factor_, common_->get());
 }
 
-int UpdatableCholesky::n() const { return factor_ ? static_cast<int>(factor_->n) : 0; }
-const int* UpdatableCholesky::Lp() const { return static_cast<const int*>(factor_->p); }
-const int* UpdatableCholesky::Li() const { return static_cast<const int*>(factor_->i); }
-const int* UpdatableCholesky::Lnz() const { return static_cast<const int*>(factor_->nz); }
-const double* UpdatableCholesky::Lx() const { return static_cast<const double*>(factor_->x); }
-double UpdatableCholesky::Pivot(int j) const { return Lx()[Lp()[j]]; }
-int UpdatableCholesky::BelowCount(int j) const { return Lnz()[j] - 1; }
-const int* UpdatableCholesky::BelowRows(int j) const { return Li() + Lp()[j] + 1; }
-const double* UpdatableCholesky::BelowValues(int j) const { return Lx() + Lp()[j] + 1; }
+void UpdatableCholesky::TakeArrays() {
+  n_ = factor_ ? static_cast<int>(factor_->n) : 0;
+  p_ = factor_ ? static_cast<const int*>(factor_->p) : nullptr;
+  i_ = factor_ ? static_cast<const int*>(factor_->i) : nullptr;
+  nz_ = factor_ ? static_cast<const int*>(factor_->nz) : nullptr;
+  x_ = factor_ ? static_cast<const double*>(factor_->x) : nullptr;
+}
 
 bool UpdatableCholesky::Factorize(int n, const std::vector<int>& col_ptr,
                                   const std::vector<int>& rows,
                                   const std::vector<double>& values) {
   if (factor_) cholmod_free_factor(&factor_, common_->get());
+  TakeArrays();
   // The caller's order is the elimination order (unknowns it will append
   // to are placed last by it). The supernodal method factorises it several
   // times faster than the simplicial one (3D: 6x6 blocks, dense fronts), and
@@ -75,12 +74,15 @@ bool UpdatableCholesky::Factorize(int n, const std::vector<int>& col_ptr,
       !cholmod_change_factor(CHOLMOD_REAL, /*to_ll=*/0, /*to_super=*/0, /*to_packed=*/1,
                              /*to_monotonic=*/1, factor_, c)) {
     cholmod_free_factor(&factor_, c);
+    TakeArrays();
     return false;
   }
+  TakeArrays();
   // LDL' goes through an indefinite matrix without complaint: its pivots say.
   for (int j = 0; j < n; ++j)
     if (!(Pivot(j) > 0)) {
       cholmod_free_factor(&factor_, common_->get());
+      TakeArrays();
       return false;
     }
   return true;
@@ -90,13 +92,15 @@ bool UpdatableCholesky::Modify(bool update, int k, const std::vector<int>& col_p
                                const std::vector<int>& rows, const std::vector<double>& values) {
   if (!factor_ || k == 0) return factor_ != nullptr;
   cholmod_sparse c = View(n(), k, col_ptr, rows, values, /*stype=*/0);
-  return cholmod_updown(update ? 1 : 0, &c, factor_, common_->get()) != 0;
+  const bool ok = cholmod_updown(update ? 1 : 0, &c, factor_, common_->get()) != 0;
+  TakeArrays();
+  return ok;
 }
 
 long UpdatableCholesky::NonZeros() const {
   if (!factor_) return 0;
   long nnz = 0;
-  for (size_t j = 0; j < factor_->n; ++j) nnz += Lnz()[j];
+  for (int j = 0; j < n_; ++j) nnz += nz_[j];
   return nnz;
 }
 

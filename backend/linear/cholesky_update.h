@@ -35,13 +35,13 @@ class UpdatableCholesky {
   bool Modify(bool update, int k, const std::vector<int>& col_ptr, const std::vector<int>& rows,
               const std::vector<double>& values);
 
-  int n() const;
+  int n() const { return n_; }
   // D(j, j).
-  double Pivot(int j) const;
+  double Pivot(int j) const { return x_[p_[j]]; }
   // Column j of L strictly below the diagonal: `count` entries, rows ascending.
-  int BelowCount(int j) const;
-  const int* BelowRows(int j) const;
-  const double* BelowValues(int j) const;
+  int BelowCount(int j) const { return nz_[j] - 1; }
+  const int* BelowRows(int j) const { return i_ + p_[j] + 1; }
+  const double* BelowValues(int j) const { return x_ + p_[j] + 1; }
   // j's parent in the elimination tree (its first row below the diagonal);
   // -1 for a root.
   int Parent(int j) const { return BelowCount(j) > 0 ? BelowRows(j)[0] : -1; }
@@ -49,10 +49,14 @@ class UpdatableCholesky {
   long NonZeros() const;
 
  private:
-  const int* Lp() const;
-  const int* Li() const;
-  const int* Lnz() const;
-  const double* Lx() const;
+  // The factor's arrays, which CHOLMOD may move as it grows a column: taken
+  // again after each change, so that the accessors above stay inline.
+  void TakeArrays();
+  const int* p_ = nullptr;
+  const int* i_ = nullptr;
+  const int* nz_ = nullptr;
+  const double* x_ = nullptr;
+  int n_ = 0;
 
   std::unique_ptr<CholmodCommon> common_;
   cholmod_factor_struct* factor_ = nullptr;

@@ -377,14 +377,13 @@ std::vector<int> PartialUpdater::ChooseRelinearization() {
   relinearize_.clear();
   long spent = 0;
   for (const auto& [m, v] : waiting) {
-    const long cost = 2L * d_ * static_cast<long>(edges_of_[v].size()) * PathEntries(slot_[v] * d_);
-    if (!chosen.empty() && spent + cost > relinearize_budget_) {
-      relinearize_.push_back(v);
-      waiting_[v] = 1;
+    if (spent < relinearize_budget_) {
+      spent += 2L * d_ * static_cast<long>(edges_of_[v].size()) * PathEntries(slot_[v] * d_);
+      chosen.push_back(v);
       continue;
     }
-    spent += cost;
-    chosen.push_back(v);
+    relinearize_.push_back(v);
+    waiting_[v] = 1;
   }
   return chosen;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
@@ -96,6 +97,12 @@ void Step(IncrementalOptimizer& opt, ReplayMode mode, ReplayResult* result) {
   }
 }
 
+double ProcessCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 }  // namespace
 
 double Percentile(std::vector<double> values, double q) {
@@ -117,6 +124,7 @@ ReplayResult Replay(const PoseGraph& graph, const ReplayOptions& options) {
   result.edges = graph.edges().size();
   const auto all = std::chrono::steady_clock::now();
   auto step_start = all;
+  double cpu_start = ProcessCpuSeconds();
   for (size_t k = 0; k < plan.order.size(); ++k) {
     FeedPose(graph, opt, graph.vertices()[plan.order[k]], plan.edges_at[k]);
     const bool last = k + 1 == plan.order.size();
@@ -126,6 +134,9 @@ ReplayResult Replay(const PoseGraph& graph, const ReplayOptions& options) {
     const auto now = std::chrono::steady_clock::now();
     result.step_s.push_back(std::chrono::duration<double>(now - step_start).count());
     step_start = now;
+    const double cpu_now = ProcessCpuSeconds();
+    result.step_cpu_s.push_back(cpu_now - cpu_start);
+    cpu_start = cpu_now;
     if (options.progress) options.progress(k + 1, plan.order.size());
   }
   result.total_s = Seconds(all);

@@ -32,6 +32,9 @@ struct ReplayOptions {
 
 struct ReplayResult {
   std::vector<double> step_s;  // wall time of each step: feeding its poses and updating
+  // The process's CPU time of each step: on a machine shared with other
+  // jobs, what the step costs when it has a core to itself.
+  std::vector<double> step_cpu_s;
   double total_s = 0;          // all steps
   double replay_chi2 = 0;      // g2o's chi2 after the last step, before the exact solve
   double final_chi2 = 0;       // after a final exact Optimize() with the same solver

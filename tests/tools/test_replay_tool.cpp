@@ -58,6 +58,8 @@ TEST(ReplayTool, WritesItsFiguresAndEndsAtTheBatchOptimum) {
       EXPECT_LE(median, p99);
       EXPECT_LE(p99, JsonNumber(j, "max_step_s"));
       EXPECT_GE(JsonNumber(j, "total_s"), median * steps * 0.5);
+      EXPECT_GT(JsonNumber(j, "total_cpu_s"), 0);
+      EXPECT_LE(JsonNumber(j, "median_step_cpu_s"), JsonNumber(j, "p99_step_cpu_s"));
       const double final_chi2 = JsonNumber(j, "final_chi2"), batch = JsonNumber(j, "batch_chi2");
       EXPECT_LT(std::abs(final_chi2 - batch), 1e-6 * batch) << solver << " seed " << seed;
     }

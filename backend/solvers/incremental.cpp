@@ -200,7 +200,8 @@ void IncrementalOptimizer::SyncGaussNewton() {
 UpdateResult IncrementalOptimizer::Update() {
   const auto start = std::chrono::steady_clock::now();
   if (!partial_)
-    partial_ = std::make_unique<PartialUpdater>(&graph_, manifold_.get(), gn_loss_.get(), options_.partial);
+    partial_ = std::make_unique<PartialUpdater>(&graph_, manifold_.get(), gn_loss_.get(),
+                                                options_.partial);
   UpdateResult result;
   if (!partial_->Update(&result)) {
     Optimize(SolverKind::kGaussNewton);

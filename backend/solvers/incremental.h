@@ -3,7 +3,9 @@
 // from the last solution. Both solvers keep their problem between calls and
 // take in only what was added: Ceres's problem gains the new parameter and
 // residual blocks; the Gauss-Newton problem keeps its cost functions and its
-// fill-reducing ordering, with new poses appended at the end of it.
+// fill-reducing ordering, with new poses appended at the end of it. Update()
+// is the per-pose call: partial updates of a kept factor (iSAM2's scheme),
+// at a cost set by what the new edges move rather than by the graph's size.
 #pragma once
 
 #include <ceres/loss_function.h>
@@ -84,8 +86,8 @@ class IncrementalOptimizer {
   // What a robot calls after each new pose: takes in what was added since
   // the last call at the cost of what it changes, not of the graph's size
   // (PartialUpdater): new edges and edges whose poses moved past
-  // partial.relinearize_threshold are (re-)linearised into the kept factor, and
-  // the poses the change reaches get their new estimate. One Gauss-Newton
+  // partial.relinearize_threshold are (re-)linearised into the kept factor,
+  // and the poses the change reaches get their new estimate. One Gauss-Newton
   // step on a kept linearisation, not a converged solve: Optimize() gives
   // the exact optimum when asked. Graphs with landmarks or a rotation-only
   // gauge are optimised whole (UpdateResult::exact).

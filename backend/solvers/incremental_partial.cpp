@@ -229,7 +229,8 @@ std::vector<int> RecentLastOrder(int m, const std::vector<std::vector<int>>& nei
   // (CAMD needs both sets non-empty.)
   if (m > 2 * kRecent)
     for (int b = m - kRecent; b < m; ++b) member[b] = 1;
-  const bool ok = graph && cholmod_camd(graph, nullptr, 0, member.data(), order.data(), common.get());
+  const bool ok =
+      graph && cholmod_camd(graph, nullptr, 0, member.data(), order.data(), common.get());
   if (graph) cholmod_free_sparse(&graph, common.get());
   if (!ok)
     for (int b = 0; b < m; ++b) order[b] = b;

@@ -28,7 +28,8 @@ std::string Slurp(const std::string& path) {
 
 std::string Simulated(int dim, int poses, int seed, const std::string& extra = "") {
   const std::string path = TempDir() + "/sim" + std::to_string(dim) + "_" +
-                           std::to_string(poses) + "_" + std::to_string(seed) + (extra.empty() ? "" : "_lm") +
+                           std::to_string(poses) + "_" + std::to_string(seed) +
+                           (extra.empty() ? "" : "_lm") +
                            ".g2o";
   int status = 0;
   RunCommand(kTool + " simulate --dim " + std::to_string(dim) + " --poses " +

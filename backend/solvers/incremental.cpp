@@ -197,8 +197,24 @@ void IncrementalOptimizer::SyncGaussNewton() {
   }
 }
 
+UpdateResult IncrementalOptimizer::Update() {
+  const auto start = std::chrono::steady_clock::now();
+  if (!partial_)
+    partial_ = std::make_unique<PartialUpdater>(&graph_, manifold_.get(), gn_loss_.get(),
+                                                options_.partial);
+  UpdateResult result;
+  if (!partial_->Update(&result)) {
+    Optimize(SolverKind::kGaussNewton);
+    result.exact = true;
+  }
+  result.time_s = Seconds(start);
+  return result;
+}
+
 SolveResult IncrementalOptimizer::Optimize(SolverKind solver) {
   const auto start = std::chrono::steady_clock::now();
+  // The estimate moves under the partial updates' linearisation.
+  if (partial_) partial_->Invalidate();
   if (solver == SolverKind::kGaussNewton) {
     SyncGaussNewton();
     const double sync_s = Seconds(start);

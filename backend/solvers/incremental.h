@@ -3,7 +3,9 @@
 // from the last solution. Both solvers keep their problem between calls and
 // take in only what was added: Ceres's problem gains the new parameter and
 // residual blocks; the Gauss-Newton problem keeps its cost functions and its
-// fill-reducing ordering, with new poses appended at the end of it.
+// fill-reducing ordering, with new poses appended at the end of it. Update()
+// is the per-pose call: partial updates of a kept factor (iSAM2's scheme),
+// at a cost set by what the new edges move rather than by the graph's size.
 #pragma once
 
 #include <ceres/loss_function.h>
@@ -20,6 +22,7 @@
 #include "cairn/solvers/gauss_newton.h"
 #include "cairn/graph/pose_graph.h"
 #include "cairn/solvers/determinacy.h"
+#include "cairn/solvers/incremental_partial.h"
 #include "cairn/solvers/solve_result.h"
 
 namespace cairn {
@@ -35,8 +38,11 @@ struct IncrementalOptions {
   // whenever the held vertices change).
   double reorder_growth = 0.1;
 
-  // Both solvers' options are valid and reorder_growth is >= 0; the
-  // optimizer's constructor throws std::invalid_argument otherwise.
+  // Update()'s thresholds and bounds (incremental_partial.h).
+  PartialUpdateOptions partial;
+
+  // Both solvers' options and `partial` are valid and reorder_growth is
+  // >= 0; the optimizer's constructor throws std::invalid_argument otherwise.
   bool IsValid(std::string* error) const;
 };
 
@@ -77,6 +83,15 @@ class IncrementalOptimizer {
   // Optimises everything added so far from the current estimate. The gauge
   // is the batch solvers': FIX vertices, else a prior, else the lowest id.
   SolveResult Optimize(SolverKind solver = SolverKind::kGaussNewton);
+  // What a robot calls after each new pose: takes in what was added since
+  // the last call at the cost of what it changes, not of the graph's size
+  // (PartialUpdater): new edges and edges whose poses moved past
+  // partial.relinearize_threshold are (re-)linearised into the kept factor,
+  // and the poses the change reaches get their new estimate. One Gauss-Newton
+  // step on a kept linearisation, not a converged solve: Optimize() gives
+  // the exact optimum when asked. Graphs with landmarks or a rotation-only
+  // gauge are optimised whole (UpdateResult::exact).
+  UpdateResult Update();
 
   // Marginal covariances (tangent space: 3x3 or 6x6, in the pose's own
   // frame) of the given vertices at the current estimate, from the chosen
@@ -115,6 +130,7 @@ class IncrementalOptimizer {
   std::unique_ptr<ceres::Problem> ceres_;
   size_t ceres_edges_ = 0;  // edges already in the Ceres problem
 
+  std::unique_ptr<PartialUpdater> partial_;
   std::unique_ptr<GaussNewtonProblem> gn_;
   size_t gn_edges_ = 0;
   std::vector<bool> gn_held_;  // per vertex, as last given to the GN problem

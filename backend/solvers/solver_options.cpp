@@ -53,6 +53,7 @@ bool IncrementalOptions::IsValid(std::string* error) const {
   if (!ceres.IsValid(&why)) return Fail(error, "ceres: " + why);
   if (!gauss_newton.IsValid(&why)) return Fail(error, "gauss_newton: " + why);
   if (!NonNegative(reorder_growth)) return Fail(error, "reorder_growth must be a number >= 0");
+  if (!partial.IsValid(&why)) return Fail(error, "partial: " + why);
   return true;
 }
 

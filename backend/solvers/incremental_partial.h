@@ -1,0 +1,156 @@
+// The Gauss-Newton path's partial updates behind IncrementalOptimizer::Update,
+// in the manner of iSAM2 (Kaess et al. 2012) on a sparse Cholesky factor
+// instead of a Bayes tree. The normal equations are kept at fixed
+// linearisation points, the gradient as one more (last) row and column, so
+// that the factor's last row is the forward solve: a new edge adds its
+// rank-d term J^T J (with J^T r in that row) as an update of the factor; an
+// edge whose pose moved past the relinearisation threshold has its old term
+// downdated and the new one updated; a new pose takes a reserved column at
+// the end of the elimination order. Only the columns on the modified paths of
+// the elimination tree are solved again, and from them only the subtrees
+// whose steps change by more than the wildfire threshold. A fresh ordering
+// (AMD, new poses last) and factorisation are made when the reserved columns
+// run out, when the fill has grown past a bound, or when the gauge may move.
+#pragma once
+
+#include <ceres/cost_function.h>
+#include <ceres/loss_function.h>
+#include <ceres/manifold.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cairn/graph/pose_graph.h"
+
+namespace cairn {
+
+class UpdatableCholesky;  // backend/linear, internal
+
+// The approximations and bounds of partial updates.
+struct PartialUpdateOptions {
+  // A pose whose step from its linearisation point exceeds this (largest
+  // tangent component: m, rad) has its edges re-linearised at the next
+  // Update, as iSAM2's relinearizeThreshold. 0 re-linearises every pose that moved.
+  double relinearize_threshold = 0.1;
+  // How much factor work (entries of L that the re-linearised edges'
+  // downdates and updates pass) one Update may spend re-linearising; the
+  // farthest-moved poses go first, the rest wait for the next Updates.
+  long relinearize_budget = 2000000;
+  // Solving again stops in a subtree of the elimination tree where the
+  // step changed by no more than this (iSAM2's wildfire threshold); 0
+  // solves every unknown the change reaches.
+  double wildfire_threshold = 1e-3;
+  // Poses the factor has room for beyond those it holds (at least this
+  // many, and a twentieth of those it holds); a fresh ordering and
+  // factorisation when they are used up.
+  int reserve_poses = 500;
+  // Entries the factor may gain (fill from loop closures through the
+  // appended poses) before a fresh ordering and factorisation.
+  long fill_bound = 200000;
+
+  // The thresholds and fill_bound are numbers >= 0, reserve_poses and
+  // relinearize_budget >= 1.
+  bool IsValid(std::string* error) const;
+};
+
+// What one Update did, for benchmarks and tests.
+struct UpdateResult {
+  double time_s = 0;
+  bool refactorized = false;  // a fresh ordering and factorisation
+  bool exact = false;         // fell back to a full Optimize (graphs partial updates do not cover)
+  int new_edges = 0;
+  int relinearized_vertices = 0;  // whose edges were re-linearised
+  int solved_unknowns = 0;        // scalar unknowns solved again
+  long factor_nonzeros = 0;
+};
+
+class PartialUpdater {
+ public:
+  // `manifold` is the pose manifold, `loop_loss` the loss on loop closures
+  // (may be null): both outlive this, as does the graph.
+  PartialUpdater(PoseGraph* graph, const ceres::Manifold* manifold,
+                 const ceres::LossFunction* loop_loss, const PartialUpdateOptions& options);
+  ~PartialUpdater();
+  PartialUpdater(const PartialUpdater&) = delete;
+  PartialUpdater& operator=(const PartialUpdater&) = delete;
+
+  // Whether partial updates cover this graph: poses only, a gauge of whole
+  // held poses.
+  static bool Covers(const PoseGraph& graph);
+  // Takes in the edges added since the last call and moves the estimate
+  // (the graph's vertices) to the new solution of the kept linear system.
+  // False when the graph is not covered or the factor is not positive
+  // definite: the caller then solves it whole.
+  bool Update(UpdateResult* out);
+  // The estimate was moved by someone else (a full solve): the next Update
+  // linearises everything afresh there.
+  void Invalidate() { valid_ = false; }
+
+ private:
+  struct Columns;
+  bool Rebuild(UpdateResult* out);
+  void PlaceVariables(const std::vector<bool>& held);
+  bool AssembleAndFactorize();
+  void ResetTree();
+  void ComputeComponents();
+  bool TakeInGauge(const Edge& e);
+  int Find(int v);
+  void NormalizeRotation(Vertex& v) const;
+  void Linearize(size_t e);
+  void AppendColumns(size_t e, Columns* c) const;
+  void AddEdgeToState(size_t e);
+  long PathEntries(int j) const;
+  std::vector<int> ChooseRelinearization();
+  void CollectRelinearization(Columns* up, Columns* down, UpdateResult* out);
+  void TakeInNewEdges(Columns* up, Columns* down, UpdateResult* out);
+  bool Modify(UpdateResult* out);
+  void MarkPath(int j);
+  void Reparent(int j, int p);
+  void BackSubstitute(UpdateResult* out);
+  void WriteEstimates();
+  const double* LinPoint(size_t vertex) const { return &x0_[vertex * p_]; }
+
+  PoseGraph* graph_;
+  const ceres::Manifold* manifold_;
+  const ceres::LossFunction* loop_loss_;
+  double relinearize_threshold_, wildfire_threshold_;
+  int reserve_;
+  long fill_bound_, relinearize_budget_;
+  int d_, p_, stride_;
+  bool valid_ = false;
+  bool rebuild_ = true;
+
+  std::unique_ptr<UpdatableCholesky> factor_;
+  int n_ = 0, rhs_ = 0;      // unknowns (reserved included); the gradient's row
+  int used_ = 0, cap_ = 0;   // variable blocks placed; blocks the factor has room for
+  long nnz_at_build_ = 0;
+  int updates_since_build_ = 0;
+  size_t edges_in_ = 0;
+
+  // Per vertex (graph index): its block in the order (-1: none, e.g. held),
+  // its linearisation point, its edges; union-find for the gauge.
+  std::vector<int> slot_;
+  std::vector<double> x0_;
+  std::vector<std::vector<int>> edges_of_;
+  std::vector<bool> touched_;
+  std::vector<int> uf_, min_id_;
+  std::vector<char> anchored_;
+  // Per block: its vertex. Per scalar: the step from the linearisation point.
+  std::vector<int> vertex_at_;
+  std::vector<double> delta_;
+  // Per edge: its cost function and its whitened Jacobian and residual at
+  // the linearisation points (d x 2d row-major, then d).
+  std::vector<std::unique_ptr<ceres::CostFunction>> cost_;
+  std::vector<double> jr_;
+  // The elimination tree, kept as the factor's pattern changes.
+  std::vector<int> parent_;
+  std::vector<std::vector<int>> children_;
+  // Per-update scratch.
+  std::vector<int> stamp_, marked_, relinearize_, changed_blocks_;
+  std::vector<int> block_stamp_, done_, edge_stamp_;
+  std::vector<char> waiting_;  // per vertex: in relinearize_
+  int round_ = 0;
+};
+
+}  // namespace cairn

@@ -95,7 +95,6 @@ class ConjugateGradients final : public SparseCholesky {
     return use_tree_ ? "conjugate gradients, spanning-tree preconditioner"
                      : "conjugate gradients, block-Jacobi preconditioner";
   }
-  int LastIterations() const { return last_iterations_; }
 
  private:
   bool FactorDiagonalBlocks();
@@ -113,7 +112,6 @@ class ConjugateGradients final : public SparseCholesky {
   Sparse tree_;                   // H on the tree's pattern, upper triangle
   std::vector<int> tree_source_;  // for each of tree_'s values, its index in values_
   Eigen::SimplicialLLT<Sparse, Eigen::Upper> tree_llt_;
-  int last_iterations_ = 0;
 };
 
 bool ConjugateGradients::FactorDiagonalBlocks() {
@@ -237,7 +235,6 @@ void ConjugateGradients::Solve(const double* b_ptr, double* x_ptr) {
   double rho = r.dot(z), model = 0;  // model: the quadratic x'Hx/2 - b'x, falling from 0
   const double stop_residual = 1e-14 * b.norm();
   const int max_iterations = options_.max_iterations > 0 ? options_.max_iterations : std::max(n_, 1);
-  last_iterations_ = 0;
   for (int it = 1; it <= max_iterations && r.norm() > stop_residual; ++it) {
     Multiply(p, &hp);
     const double curvature = p.dot(hp);
@@ -251,7 +248,6 @@ void ConjugateGradients::Solve(const double* b_ptr, double* x_ptr) {
     r -= alpha * hp;
     const double fall = 0.5 * alpha * rho;
     model -= fall;
-    last_iterations_ = it;
     if (it * fall <= -options_.tolerance * model) break;
     Precondition(r, &z);
     const double rho_next = r.dot(z);

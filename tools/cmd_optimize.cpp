@@ -76,7 +76,10 @@ void DeclareSolverOptions(ArgParser& args, OptimizeArgs& a) {
             "postordering) instead of pre-permuting the Jacobian");
   args.Flag("no-jacobi-scaling", &a.no_jacobi, "ceres: do not scale columns of the Jacobian");
   args.Option("linear-solver", &a.linear_solver, "NAME",
-              "gn: auto, parallel, supernodal, simplicial, cholmod-auto or eigen");
+              "how H dx = -b is solved. gn: auto, parallel, supernodal, simplicial, cholmod-auto, "
+              "eigen (Cholesky), qr (sparse QR of the whitened Jacobian, never forming H), cg "
+              "(conjugate gradients, spanning-tree preconditioner) or cg-jacobi (block-Jacobi); "
+              "ceres: auto (sparse Cholesky), qr (dense QR, small graphs) or cg (CGNR)");
   args.Flag("gn-no-chord", &a.gn_no_chord,
             "gn: factorise at every step (no steps with an earlier factorisation)");
   args.Option("gn-damping", &a.gn_damping, "LAMBDA",
@@ -164,7 +167,11 @@ bool MakePlan(OptimizeArgs& a, OptimizePlan* p) {
     p->ceres.use_postordering = a.postordering;
     p->ceres.jacobi_scaling = !a.no_jacobi;
     p->gn = GaussNewtonOptions(a.common);
-    p->gn.linear_solver = ParseCholeskyKind(a.linear_solver);
+    // The names differ between the paths ("auto" means each one's default).
+    if (p->solver == SolverKind::kCeres)
+      p->ceres.linear_solver = ParseCeresLinearSolver(a.linear_solver);
+    else
+      p->gn.linear_solver = ParseCholeskyKind(a.linear_solver);
     p->gn.damping = a.gn_damping;
     p->gn.reuse_factorization = !a.gn_no_chord;
     // Outlier rejection trusts its start, and the chordal relaxation takes in

@@ -304,7 +304,7 @@ struct Half {
 
 class DomainCholmod final : public SparseCholesky {
  public:
-  explicit DomainCholmod(double min_work) : min_work_(min_work) {}
+  DomainCholmod(double min_work, int threads) : min_work_(min_work), threads_(threads) {}
 
   void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
                const std::vector<int>& block_sizes) override {
@@ -350,7 +350,7 @@ class DomainCholmod final : public SparseCholesky {
     s_.setZero(nt, nt);
     x_top_.setZero(nt);
     for (Eigen::VectorXd& v : through_) v.setZero(nt);
-    if (!pool_) pool_ = std::make_unique<ThreadPool>(2);
+    if (!pool_) pool_ = std::make_unique<ThreadPool>(threads_);
     std::exception_ptr failed[2];
     pool_->ParallelFor(2, [&](size_t begin, size_t end) {
       for (size_t g = begin; g < end; ++g) try {
@@ -484,6 +484,7 @@ class DomainCholmod final : public SparseCholesky {
   }
 
   const double min_work_;
+  const int threads_;
   std::unique_ptr<ThreadPool> pool_;  // made at the first split
   std::unique_ptr<SparseCholesky> whole_;  // when not split
   std::vector<int> given_, used_;
@@ -498,8 +499,8 @@ class DomainCholmod final : public SparseCholesky {
 
 }  // namespace
 
-std::unique_ptr<SparseCholesky> CreateDomainCholesky(double min_work) {
-  return std::make_unique<DomainCholmod>(min_work);
+std::unique_ptr<SparseCholesky> CreateDomainCholesky(double min_work, int threads) {
+  return std::make_unique<DomainCholmod>(min_work, std::max(1, std::min(threads, 2)));
 }
 
 }  // namespace cairn

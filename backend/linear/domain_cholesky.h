@@ -17,6 +17,10 @@ constexpr double kMinWorkToSplit = 2e7;
 // Splits when the estimated work is at least `min_work` and two threads
 // would finish in at most 3/4 of one's time; otherwise it is CHOLMOD's own
 // choice (Factorization::kSupernodalOrSimplicial) on one thread, in the same order.
-std::unique_ptr<SparseCholesky> CreateDomainCholesky(double min_work = kMinWorkToSplit);
+// Whether and where it splits depends on the matrix alone, never on
+// `threads`: with one thread the halves are factorised one after the other,
+// with the same arithmetic, so the result is the same to the last bit.
+std::unique_ptr<SparseCholesky> CreateDomainCholesky(double min_work = kMinWorkToSplit,
+                                                     int threads = 2);
 
 }  // namespace cairn

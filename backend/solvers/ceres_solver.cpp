@@ -94,6 +94,28 @@ double LargestInformation(const PoseGraph& graph) {
   return largest;
 }
 
+// The unknowns Ceres solves for: the free blocks' tangent sizes.
+int TangentUnknowns(ceres::Problem& problem) {
+  std::vector<double*> blocks;
+  problem.GetParameterBlocks(&blocks);
+  int n = 0;
+  for (double* b : blocks)
+    if (!problem.IsParameterBlockConstant(b)) n += problem.ParameterBlockTangentSize(b);
+  return n;
+}
+
+// Dense QR on a graph too large for it is refused as Ceres refuses a
+// configuration: nothing solved, not usable. True when refused.
+bool RefuseDenseQR(const ceres::Solver::Options& so, ceres::Problem& problem, SolveResult* result) {
+  if (so.linear_solver_type != ceres::DENSE_QR || TangentUnknowns(problem) <= kMaxDenseQrUnknowns)
+    return false;
+  result->final_chi2 = result->initial_chi2;
+  result->termination = "failure";
+  result->message = "dense QR is for graphs of at most " + std::to_string(kMaxDenseQrUnknowns) +
+                    " unknowns (its Jacobian is stored dense): use the Gauss-Newton path's sparse QR";
+  return true;
+}
+
 }  // namespace
 
 FactorEstimate EstimateFactor(const PoseGraph& graph) {
@@ -160,6 +182,14 @@ CeresOptions::SparseLibrary ParseSparseLibrary(const std::string& text) {
                               "' (expected auto, suitesparse, eigen or cxsparse)");
 }
 
+CeresOptions::LinearSolver ParseCeresLinearSolver(const std::string& text) {
+  if (text == "auto" || text == "cholesky") return CeresOptions::LinearSolver::kSparseNormalCholesky;
+  if (text == "qr") return CeresOptions::LinearSolver::kDenseQR;
+  if (text == "cg") return CeresOptions::LinearSolver::kCGNR;
+  throw std::invalid_argument("unknown linear solver '" + text +
+                              "' for the Ceres path (expected auto, cholesky, qr or cg)");
+}
+
 CeresGraphProblem::CeresGraphProblem(PoseGraph& graph, const RobustLoss& loop_closure_loss)
     : manifold_(graph.dimension() == 2 ? factors::MakeSE2Manifold()
                                        : factors::MakeSE3Manifold()),
@@ -215,6 +245,16 @@ ceres::Solver::Options MakeSolverOptions(const PoseGraph& graph, const CeresOpti
                                       ? ceres::DOGLEG
                                       : ceres::LEVENBERG_MARQUARDT;
   so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  if (options.linear_solver == CeresOptions::LinearSolver::kDenseQR) {
+    so.linear_solver_type = ceres::DENSE_QR;
+  } else if (options.linear_solver == CeresOptions::LinearSolver::kCGNR) {
+    so.linear_solver_type = ceres::CGNR;
+    so.preconditioner_type = ceres::JACOBI;
+    // Ceres's defaults (eta 0.1, 500 iterations) leave each step inexact
+    // enough that LM stops short of the optimum the direct solvers reach.
+    so.eta = 1e-8;
+    so.max_linear_solver_iterations = 20000;
+  }
   so.sparse_linear_algebra_library_type = SparseLibraryFor(graph, options.sparse_library);
   so.max_num_iterations = options.max_iterations;
   so.max_solver_time_in_seconds = options.max_time_s;
@@ -264,8 +304,14 @@ SolveResult SolveWithCeres(PoseGraph& graph, const CeresOptions& options) {
   for (const Vertex& v : graph.vertices()) start_estimate.push_back(v.x);
 
   ceres::Solver::Options so = MakeSolverOptions(graph, options);
-  result.linear_solver = std::string("SPARSE_NORMAL_CHOLESKY/") +
-                         ceres::SparseLinearAlgebraLibraryTypeToString(so.sparse_linear_algebra_library_type);
+  result.linear_solver = ceres::LinearSolverTypeToString(so.linear_solver_type);
+  if (so.linear_solver_type == ceres::SPARSE_NORMAL_CHOLESKY)
+    result.linear_solver += std::string("/") + ceres::SparseLinearAlgebraLibraryTypeToString(
+                                                   so.sparse_linear_algebra_library_type);
+  if (RefuseDenseQR(so, graph_problem.problem(), &result)) {
+    result.time_s = Seconds(start);
+    return result;
+  }
   TraceCallback callback(&result, options.verbose);
   so.callbacks.push_back(&callback);
   RelativeGradientTest gradient_test(options.gradient_tolerance,

@@ -25,6 +25,11 @@ struct CeresOptions : SolverOptions {
   // SuiteSparse's supernodal factorisation pays on 3D graphs, whose normal
   // matrices have dense 6x6 blocks; planar graphs factor as fast simplicial.
   enum class SparseLibrary { kAuto, kSuiteSparse, kEigen, kCxSparse };
+  // How each step's linear system is solved: sparse Cholesky of J^T J,
+  // Ceres's dense QR of J (small graphs only: kMaxDenseQrUnknowns), or
+  // conjugate gradients on the normal equations (CGNR, Jacobi-
+  // preconditioned, solved tightly enough to reach the Cholesky optimum).
+  enum class LinearSolver { kSparseNormalCholesky, kDenseQR, kCGNR };
 
   CeresOptions() = default;
   // The shared settings (iterations, tolerances, threads, loss) taken from
@@ -33,6 +38,7 @@ struct CeresOptions : SolverOptions {
 
   Method method = Method::kLevenbergMarquardt;
   SparseLibrary sparse_library = SparseLibrary::kAuto;
+  LinearSolver linear_solver = LinearSolver::kSparseNormalCholesky;
   bool jacobi_scaling = true;
   // A large first radius starts LM close to Gauss-Newton, which pose graphs
   // started from odometry usually tolerate; LM shrinks it when they do not.
@@ -67,6 +73,13 @@ FactorEstimate EstimateFactor(const PoseGraph& graph);
 CeresOptions::Method ParseCeresMethod(const std::string& text);
 // Parses "auto", "suitesparse", "eigen", "cxsparse"; throws std::invalid_argument.
 CeresOptions::SparseLibrary ParseSparseLibrary(const std::string& text);
+// Parses "auto" or "cholesky" (sparse normal Cholesky), "qr" (dense QR) and
+// "cg" (CGNR); throws std::invalid_argument.
+CeresOptions::LinearSolver ParseCeresLinearSolver(const std::string& text);
+// The largest tangent dimension Ceres's dense QR is used for: its Jacobian
+// is stored dense (a 2000-unknown graph's is about 50 MB) and factorised in
+// O(m n^2). SolveWithCeres refuses larger graphs with this choice.
+constexpr int kMaxDenseQrUnknowns = 2000;
 
 // A pose graph laid out as a Ceres problem over the graph's own vertex
 // arrays. Only vertices that some edge touches become parameter blocks.

@@ -1,7 +1,8 @@
 // cairn's own Gauss-Newton solver. It takes the same Ceres cost functions,
 // loss functions and manifolds a ceres::Problem takes (so its Jacobians come
 // from the very same autodiff factors) and solves the normal equations
-// H dx = -b by sparse Cholesky, with the symbolic analysis done once.
+// H dx = -b by sparse Cholesky (or sparse QR of J, or conjugate gradients:
+// linear_solver.h), with the symbolic analysis done once.
 #pragma once
 
 #include <ceres/cost_function.h>
@@ -128,6 +129,10 @@ class GaussNewtonProblem {
                    std::vector<int>* rows);
   void AnalyzePattern(PreviousAnalysis* previous, const std::vector<int>& col_ptr,
                       const std::vector<int>& rows);
+  // CholeskyKind::kQR instead of the last two: the Jacobian's pattern, and
+  // its values (for each linearisation) with diag(J^T J).
+  void PlanJacobian();
+  void LoadJacobian();
   std::vector<int> HintedOrdering() const;
 
   // Solve's iteration: a chord step with the last factorisation when chi2
@@ -142,6 +147,9 @@ class GaussNewtonProblem {
   // Jacobians and gradient b at the current estimate; returns chi2.
   double LinearizeGradient();
   void AssembleNormalMatrix();
+  bool SolveStepByQR(double lambda, double* step_norm);
+  // x = H^-1 g with the last factorisation (kQR: R^T R x = g).
+  void SolveNormalEquations(const double* g, double* x);
   // Fall of chi2 that the linear model promises for the step just solved.
   double PredictedDecrease(double lambda) const;
   void SaveEstimate();

@@ -11,8 +11,12 @@ CholeskyKind ParseCholeskyKind(const std::string& name) {
   if (name == "cholmod-auto") return CholeskyKind::kSupernodalOrSimplicial;
   if (name == "parallel") return CholeskyKind::kTwoHalves;
   if (name == "eigen") return CholeskyKind::kEigenLDLT;
+  if (name == "qr") return CholeskyKind::kQR;
+  if (name == "cg") return CholeskyKind::kConjugateGradients;
+  if (name == "cg-jacobi") return CholeskyKind::kConjugateGradientsJacobi;
   throw std::invalid_argument("unknown linear solver '" + name +
-                              "' (auto, supernodal, simplicial, cholmod-auto, parallel or eigen)");
+                              "' (auto, supernodal, simplicial, cholmod-auto, parallel, eigen, qr, "
+                              "cg or cg-jacobi)");
 }
 
 const char* ToString(CholeskyKind kind) {
@@ -23,13 +27,15 @@ const char* ToString(CholeskyKind kind) {
     case CholeskyKind::kSupernodalOrSimplicial: return "cholmod-auto";
     case CholeskyKind::kEigenLDLT: return "eigen-ldlt";
     case CholeskyKind::kTwoHalves: return "cholmod-parallel";
+    case CholeskyKind::kQR: return "spqr";
+    case CholeskyKind::kConjugateGradients: return "cg-spanning-tree";
+    case CholeskyKind::kConjugateGradientsJacobi: return "cg-block-jacobi";
   }
   return "?";
 }
 
-CholeskyKind ResolveCholeskyKind(CholeskyKind kind, int threads) {
-  if (kind != CholeskyKind::kAuto) return kind;
-  return threads >= 2 ? CholeskyKind::kTwoHalves : CholeskyKind::kSupernodalOrSimplicial;
+CholeskyKind ResolveCholeskyKind(CholeskyKind kind, int /*threads*/) {
+  return kind == CholeskyKind::kAuto ? CholeskyKind::kTwoHalves : kind;
 }
 
 }  // namespace cairn

@@ -289,6 +289,37 @@ TEST(CeresBackend, FactorEstimateGrowsWithLoops) {
   EXPECT_GT(EstimateFactor(sim.noisy).FlopsPerNonzero(), chain.FlopsPerNonzero());
 }
 
+// Ceres's other linear solvers: dense QR (small graphs) and CGNR reach the
+// optimum of its sparse Cholesky, in 2D and 3D; dense QR refuses a graph
+// too large for it rather than allocate its dense Jacobian.
+TEST(CeresBackend, DenseQRAndCGNRReachTheCholeskyOptimum) {
+  for (int dimension : {2, 3}) {
+    const Simulation sim = Simulated(dimension, dimension == 2 ? 200 : 120);
+    PoseGraph cholesky = sim.noisy;
+    CeresOptions o;
+    o.verbose = false;
+    const double reference = SolveWithCeres(cholesky, o).final_chi2;
+    for (auto kind : {CeresOptions::LinearSolver::kDenseQR, CeresOptions::LinearSolver::kCGNR}) {
+      PoseGraph g = sim.noisy;
+      o.linear_solver = kind;
+      const SolveResult r = SolveWithCeres(g, o);
+      EXPECT_TRUE(r.converged) << r.message;
+      EXPECT_NEAR(r.final_chi2 / reference, 1.0, 1e-8) << r.linear_solver;
+      EXPECT_LT(ComparePoses(g, cholesky).max_translation, 1e-4) << r.linear_solver;
+    }
+  }
+  PoseGraph large = Simulated(2, 1000).noisy;  // 2997 unknowns
+  CeresOptions o;
+  o.verbose = false;
+  o.linear_solver = CeresOptions::LinearSolver::kDenseQR;
+  const SolveResult r = SolveWithCeres(large, o);
+  EXPECT_EQ(r.termination, "failure");
+  EXPECT_FALSE(r.usable);
+  EXPECT_NE(r.message.find("dense QR"), std::string::npos) << r.message;
+  EXPECT_EQ(ParseCeresLinearSolver("cg"), CeresOptions::LinearSolver::kCGNR);
+  EXPECT_THROW(ParseCeresLinearSolver("supernodal"), std::invalid_argument);
+}
+
 // --------------------------------------------------------- the real files
 
 struct Reference {

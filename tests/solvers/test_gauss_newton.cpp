@@ -10,6 +10,8 @@
 #include <algorithm>
 #include <cstdlib>
 #include <random>
+#include <string>
+#include <tuple>
 
 #include "cairn/solvers/ceres_solver.h"
 #include "cairn/graph/chi2.h"
@@ -308,6 +310,124 @@ TEST(GaussNewton, ChordStepsReachTheSameOptimumWithFewerFactorisations) {
     EXPECT_LT((ToSE3(full.vertices()[i].x).translation() -
                ToSE3(chord.vertices()[i].x).translation()).norm(),
               1e-7);
+}
+
+}  // namespace
+}  // namespace cairn
+
+namespace cairn {
+namespace {
+
+// At the default tolerances: a solve that reuses factorisations ends where
+// one that factorises at every step ends, on graphs whose chord steps slow
+// down far from the optimum (larger noise, several seeds, 2D and 3D).
+class ChordStepsAtDefaults : public ::testing::TestWithParam<int> {};
+
+TEST_P(ChordStepsAtDefaults, NeverStopTheSolveEarly) {
+  for (uint64_t seed : {1, 2, 3, 4}) {
+    SimulationOptions so;
+    so.dimension = GetParam();
+    so.poses = 1500;
+    so.seed = seed;
+    so.rotation_noise = 0.03;
+    so.translation_noise = 0.1;
+    const Simulation sim = Simulate(so);
+    PoseGraph full = sim.noisy, chord = sim.noisy;
+    GaussNewtonOptions o;
+    o.verbose = false;
+    o.reuse_factorization = false;
+    const SolveResult a = SolveGaussNewton(full, o);
+    o.reuse_factorization = true;
+    const SolveResult b = SolveGaussNewton(chord, o);
+    ASSERT_TRUE(a.converged && b.converged) << a.message << " / " << b.message;
+    EXPECT_NEAR(b.final_chi2 / a.final_chi2, 1.0, 1e-9) << "seed " << seed;
+    EXPECT_LT(ComparePoses(full, chord).max_translation, 1e-5) << "seed " << seed;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Dimensions, ChordStepsAtDefaults, ::testing::Values(2, 3));
+
+// The default linear solver on a graph large enough to be split in two
+// halves: one thread and two give the same estimate to the last bit.
+TEST(GaussNewton, DefaultLinearSolverGivesTheSameBitsOnAnyThreadCount) {
+  SimulationOptions so;
+  so.poses = 10000;
+  so.nodes_per_lap = 100;
+  const Simulation sim = Simulate(so);
+  PoseGraph one = sim.noisy, two = sim.noisy;
+  GaussNewtonOptions o;
+  o.verbose = false;
+  o.threads = 1;
+  const SolveResult a = SolveGaussNewton(one, o);
+  o.threads = 2;
+  const SolveResult b = SolveGaussNewton(two, o);
+  EXPECT_NE(a.linear_solver.find("two halves"), std::string::npos) << a.linear_solver;
+  EXPECT_EQ(a.linear_solver, b.linear_solver);
+  EXPECT_EQ(a.iterations, b.iterations);
+  EXPECT_EQ(a.final_chi2, b.final_chi2);
+  for (size_t i = 0; i < one.vertices().size(); ++i)
+    ASSERT_EQ(one.vertices()[i].x, two.vertices()[i].x) << "vertex " << i;
+}
+
+}  // namespace
+}  // namespace cairn
+
+namespace cairn {
+namespace {
+
+// Sparse QR of the Jacobian and conjugate gradients (both preconditioners)
+// reach the optimum Cholesky reaches, at the default tolerances, on
+// simulated 2D and 3D graphs of several seeds.
+class OtherLinearSolvers
+    : public ::testing::TestWithParam<std::tuple<int, CholeskyKind>> {};
+
+TEST_P(OtherLinearSolvers, ReachTheCholeskyOptimum) {
+  const auto [dimension, kind] = GetParam();
+  for (uint64_t seed : {5, 6}) {
+    SimulationOptions so;
+    so.dimension = dimension;
+    so.poses = 600;
+    so.nodes_per_lap = 25;
+    so.seed = seed;
+    const Simulation sim = Simulate(so);
+    PoseGraph cholesky = sim.noisy, other = sim.noisy;
+    GaussNewtonOptions o;
+    o.verbose = false;
+    const SolveResult a = SolveGaussNewton(cholesky, o);
+    o.linear_solver = kind;
+    const SolveResult b = SolveGaussNewton(other, o);
+    ASSERT_TRUE(b.converged) << b.message;
+    EXPECT_EQ(b.linear_solver.substr(0, std::string(ToString(kind)).size()), ToString(kind));
+    EXPECT_NEAR(b.final_chi2 / a.final_chi2, 1.0, 1e-9) << "seed " << seed;
+    EXPECT_LT(ComparePoses(cholesky, other).max_translation, 1e-5) << "seed " << seed;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    DimensionsAndSolvers, OtherLinearSolvers,
+    ::testing::Combine(::testing::Values(2, 3),
+                       ::testing::Values(CholeskyKind::kQR, CholeskyKind::kConjugateGradients,
+                                         CholeskyKind::kConjugateGradientsJacobi)));
+
+// Far from the optimum Gauss-Newton steps fail and the damped fallback takes
+// over: with QR its damping rows, with CG the damped H. Same end point.
+TEST(GaussNewton, QRAndCGDampLikeCholesky) {
+  SimulationOptions so;
+  so.poses = 300;
+  so.rotation_noise = 0.2;
+  so.seed = 9;
+  so.loop_probability = 1.0;
+  const Simulation sim = Simulate(so);
+  PoseGraph reference = sim.noisy;
+  const SolveResult a = SolveGaussNewton(reference, Quiet());
+  for (CholeskyKind kind : {CholeskyKind::kQR, CholeskyKind::kConjugateGradients}) {
+    PoseGraph g = sim.noisy;
+    GaussNewtonOptions o = Quiet();
+    o.linear_solver = kind;
+    const SolveResult b = SolveGaussNewton(g, o);
+    for (size_t k = 1; k < b.trace.size(); ++k) EXPECT_LE(b.trace[k].chi2, b.trace[k - 1].chi2);
+    EXPECT_NEAR(b.final_chi2 / a.final_chi2, 1.0, 1e-8) << ToString(kind);
+  }
 }
 
 }  // namespace

@@ -87,9 +87,13 @@ TEST_P(ScaledInformation, SameIterationsAndEstimateAtEveryScale) {
       EXPECT_EQ(rs.usable, r1.usable);
       EXPECT_NEAR(rs.initial_chi2 / s, r1.initial_chi2, 1e-9 * r1.initial_chi2);
       EXPECT_NEAR(rs.final_chi2 / s, r1.final_chi2, 1e-9 * r1.final_chi2);
+      // Gauss-Newton ends on a full step taken at the optimum, whose gradient
+      // is rounding noise, different at each scale: along the graph's
+      // flattest directions it moves poses by a few 1e-9 of the extent.
+      const double tolerance = c.gn ? 1e-8 : 1e-9;
       const PoseDifference d = ComparePoses(scaled, reference);
-      EXPECT_LE(d.max_translation, 1e-9 * Extent(reference));
-      EXPECT_LE(d.max_rotation_deg, 1e-9 * 180);
+      EXPECT_LE(d.max_translation, tolerance * Extent(reference));
+      EXPECT_LE(d.max_rotation_deg, tolerance * 180);
     }
   }
 }

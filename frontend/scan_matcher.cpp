@@ -198,6 +198,11 @@ struct Candidate {
   Eigen::Vector2d t = Eigen::Vector2d::Zero();
 };
 
+// The distance over which the pull to the guess grows to its full size.
+double PenaltyScale(double penalty_window, double window) {
+  return std::max(penalty_window > 0 ? penalty_window : window, 1e-6);
+}
+
 // Scores every (theta, dx, dy) with theta in `angles` and translations on
 // the map's grid within +-n cells of `center`.
 void Search(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
@@ -222,11 +227,11 @@ void Search(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
         for (size_t i = 0; i < scan.size(); ++i) sum += map.LikelihoodAtCell(cx[i] + dx, cy[i] + dy);
         sums[static_cast<size_t>(dy + n) * (2 * n + 1) + dx + n] = sum;
       }
-    const double da = NormalizeAngle(theta - guess.theta()) / std::max(o.angular_window, 1e-6);
+    const double da = NormalizeAngle(theta - guess.theta()) / PenaltyScale(o.penalty_angular_window, o.angular_window);
     for (int dy = -n; dy <= n; ++dy)
       for (int dx = -n; dx <= n; ++dx) {
         const Eigen::Vector2d t = center + Eigen::Vector2d(dx * res, dy * res);
-        const double dl = (t - guess.translation()).norm() / std::max(o.linear_window, 1e-6);
+        const double dl = (t - guess.translation()).norm() / PenaltyScale(o.penalty_linear_window, o.linear_window);
         const double score = sums[static_cast<size_t>(dy + n) * (2 * n + 1) + dx + n] * inv_n *
                              (1 - o.distance_penalty * std::min(1.0, dl * dl)) *
                              (1 - o.distance_penalty * std::min(1.0, da * da));
@@ -310,8 +315,8 @@ std::vector<Candidate> BranchAndBound(const MatchMap& map, const SearchSpace& sp
       // Exact: the same sum the exhaustive search takes, with its pull to the guess.
       const double theta = sp.angles[node.angle];
       const Eigen::Vector2d t = sp.center + Eigen::Vector2d(node.x * res, node.y * res);
-      const double da = NormalizeAngle(theta - guess.theta()) / std::max(o.angular_window, 1e-6);
-      const double dl = (t - guess.translation()).norm() / std::max(o.linear_window, 1e-6);
+      const double da = NormalizeAngle(theta - guess.theta()) / PenaltyScale(o.penalty_angular_window, o.angular_window);
+      const double dl = (t - guess.translation()).norm() / PenaltyScale(o.penalty_linear_window, o.linear_window);
       const double score = node.bound * (1 - o.distance_penalty * std::min(1.0, dl * dl)) *
                            (1 - o.distance_penalty * std::min(1.0, da * da));
       if (score >= floor * best) scored.push_back({score, theta, t});
@@ -329,18 +334,52 @@ std::vector<Candidate> BranchAndBound(const MatchMap& map, const SearchSpace& sp
   return scored;
 }
 
+// The mean likelihood of the scan at one pose, on the map's grid.
+double ScorePose(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan, double theta,
+                 const Eigen::Vector2d& t) {
+  const double c = std::cos(theta), s = std::sin(theta), res = map.resolution();
+  double sum = 0;
+  for (const auto& p : scan)
+    sum += map.LikelihoodAtCell(
+        static_cast<int>(std::floor((c * p.x() - s * p.y() + t.x() - map.origin().x()) / res)),
+        static_cast<int>(std::floor((s * p.x() + c * p.y() + t.y() - map.origin().y()) / res)));
+  return scan.empty() ? 0 : sum / scan.size();
+}
+
+// Whether the straight way from `a` to `b` at a's heading keeps the score
+// up (no dip below `share` of the lower end): the two lie on one ridge, as
+// poses along a corridor do, not on two separate peaks.
+bool OnOneRidge(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan, const Candidate& a,
+                const Candidate& b, double share) {
+  const double low = share * std::min(a.score, b.score);
+  const int steps = std::max(2, static_cast<int>(std::ceil((b.t - a.t).norm() / map.resolution())));
+  for (int k = 1; k < steps; ++k)
+    if (ScorePose(map, scan, a.theta, a.t + (b.t - a.t) * (static_cast<double>(k) / steps)) < low)
+      return false;
+  return true;
+}
+
 // The best of the scored poses, and the best of those distinct from it
 // (over the best's score; at most the floor when none reached it).
-std::pair<Candidate, double> BestAndRunnerUp(const std::vector<Candidate>& scored,
+std::pair<Candidate, double> BestAndRunnerUp(const MatchMap& map,
+                                             const std::vector<Eigen::Vector2d>& scan,
+                                             std::vector<Candidate> scored,
                                              const CorrelativeOptions& o) {
-  Candidate best;
-  for (const Candidate& c : scored)
-    if (c.score > best.score) best = c;
+  std::sort(scored.begin(), scored.end(),
+            [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  const Candidate best = scored.empty() ? Candidate{} : scored.front();
   double runner_up = 0;
+  int ridge_checks = 0;
   for (const Candidate& c : scored) {
-    const bool far = (c.t - best.t).norm() > o.runner_up_distance;
-    const bool turned = o.runner_up_angle > 0 && std::abs(NormalizeAngle(c.theta - best.theta)) > o.runner_up_angle;
-    if (far || turned) runner_up = std::max(runner_up, c.score);
+    const bool turned =
+        o.runner_up_angle > 0 && std::abs(NormalizeAngle(c.theta - best.theta)) > o.runner_up_angle;
+    if (!turned && (c.t - best.t).norm() <= o.runner_up_distance) continue;
+    // Same heading, somewhere along the best's ridge: not another place.
+    if (!turned && o.ridge_share > 0 && std::abs(NormalizeAngle(c.theta - best.theta)) < 0.05 &&
+        ridge_checks++ < 50 && OnOneRidge(map, scan, best, c, o.ridge_share))
+      continue;
+    runner_up = c.score;
+    break;
   }
   const double ratio = best.score > 0 ? runner_up / best.score : 1.0;
   return {best, o.runner_up_distance > 0 ? std::min(1.0, ratio) : 1.0};
@@ -360,7 +399,8 @@ CorrelativeResult CorrelativeMatch(const MatchMap& coarse, const MatchMap& fine,
   const SearchSpace space = MakeSpace(coarse, scan, angles, guess.translation(), n);
   // Without a runner-up to find, only the best matters: nothing below it is split.
   const double floor = o.runner_up_distance > 0 ? o.runner_up_floor : 1.0;
-  const auto [coarse_best, ratio] = BestAndRunnerUp(BranchAndBound(coarse, space, guess, o, floor), o);
+  const auto [coarse_best, ratio] =
+      BestAndRunnerUp(coarse, scan, BranchAndBound(coarse, space, guess, o, floor), o);
   best = coarse_best;
   angles.clear();
   for (int k = -2; k <= 2; ++k) angles.push_back(best.theta + k * 0.5 * o.angular_step);

@@ -97,6 +97,9 @@ struct CorrelativeOptions {
   // Gentle preference for the guess, so that a corridor's flat score does
   // not let the estimate slide along it.
   double distance_penalty = 0.1;
+  // The distances (metres, radians) at which that pull is full: the
+  // windows when 0, so that widening a window would weaken it.
+  double penalty_linear_window = 0, penalty_angular_window = 0;
   // When positive, also find the best coarse score at least this far (metres)
   // from the winner: a close second means repeated structure.
   double runner_up_distance = 0;
@@ -104,6 +107,11 @@ struct CorrelativeOptions {
   // distinct too, wherever it is: a room turned half round, a corridor
   // seen from its other end.
   double runner_up_angle = 0;
+  // When positive, a pose at the winner's heading joined to it by a ridge
+  // (the score along the way never below this share of the lower end, as
+  // along a corridor) is not distinct: the heading is certain there even
+  // if the place along the ridge is not.
+  double ridge_share = 0;
   // The coarse level is searched by branch and bound on the coarse map's
   // pyramid (exactly the exhaustive search's best pose); a runner-up ratio
   // below this share may be reported lower than it is (tests against a

@@ -210,11 +210,6 @@ class GraphBuilder {
     return icp.inlier_fraction >= o_.track_relative_inliers * v[v.size() / 2];
   }
 
-  // The match within the tracking window when it is good and not at the
-  // window's edge; else a wide search (every heading, +- 2 m) when it finds
-  // a better pose that is not ambiguous; else none: the odometry holds.
-  // *doubt: the scan disagreed with the odometry (its best pose at the
-  // window's edge) and nothing confirmed either.
   // The tracking window: the options', widened (up to 3 times) when the
   // odometry's recent errors say that a tenth of its steps lie beyond 40%
   // of it. A single glitch does not move the 90th percentile; odometry
@@ -227,6 +222,11 @@ class GraphBuilder {
     return std::clamp(2.5 * v[k], base, 3 * base);
   }
 
+  // The match within the tracking window when it is good and not at the
+  // window's edge; else a wide search (every heading, +- 2 m) when it finds
+  // a better pose that is not ambiguous; else none: the odometry holds.
+  // *doubt: the scan disagreed with the odometry (its best pose at the
+  // window's edge) and nothing confirmed either.
   std::optional<IcpResult> MatchOrRecover(const PointCloud& cloud, const SE2& predicted, bool* doubt) {
     CorrelativeOptions co;
     co.linear_window = Window(recent_shift_, o_.track_linear_window);
@@ -405,11 +405,11 @@ class GraphBuilder {
   void RebuildLocalMap() {
     PointCloud world;
     // The last keyframes whose poses the scans confirmed. One placed by the
-    // odometry alone while its scan disputed it may be turned or shifted: in
+    // odometry alone while tracking was lost may be turned or shifted: in
     // the local map it would drag the next scans with it, and they could
-    // never be matched back.
-    // Looking back at most twice the usual span: after a longer loss the
-    // trusted keyframes are out of sight and the recent ones are all there is.
+    // never be matched back. Looking back at most twice the usual span:
+    // after a longer loss the trusted keyframes are out of sight and the
+    // recent ones are all there is.
     const size_t K = res_.keyframes.size(), n = static_cast<size_t>(o_.local_map_keyframes);
     const size_t oldest = K > 2 * n ? K - 2 * n : 0;
     std::vector<size_t> use;

@@ -179,9 +179,17 @@ class GraphBuilder {
       }
       recent_inliers_.push_back(match->inlier_fraction);
       if (recent_inliers_.size() > 50) recent_inliers_.pop_front();
+      const SE2 off = predicted.Between(match->pose);
+      recent_turn_.push_back(std::abs(off.theta()));
+      recent_shift_.push_back(off.translation().norm());
+      if (recent_turn_.size() > 50) recent_turn_.pop_front(), recent_shift_.pop_front();
+      lost_ = false;
     } else {
       current_ = predicted;
-      lost_since_keyframe_ |= doubt;
+      // Once a scan has disputed the odometry, every pose the odometry alone
+      // carries on from is in doubt too, until a match holds again.
+      lost_ |= doubt;
+      lost_since_keyframe_ |= lost_;
       ++res_.stats.tracking_failures;
     }
     path_ += prev.Between(current_).translation().norm();
@@ -202,6 +210,18 @@ class GraphBuilder {
     return icp.inlier_fraction >= o_.track_relative_inliers * v[v.size() / 2];
   }
 
+  // The tracking window: the options', widened (up to 3 times) when the
+  // odometry's recent errors say that a tenth of its steps lie beyond 40%
+  // of it. A single glitch does not move the 90th percentile; odometry
+  // that is poor throughout does.
+  static double Window(const std::deque<double>& recent, double base) {
+    if (recent.size() < 20) return base;
+    std::vector<double> v(recent.begin(), recent.end());
+    const size_t k = v.size() * 9 / 10;
+    std::nth_element(v.begin(), v.begin() + k, v.end());
+    return std::clamp(2.5 * v[k], base, 3 * base);
+  }
+
   // The match within the tracking window when it is good and not at the
   // window's edge; else a wide search (every heading, +- 2 m) when it finds
   // a better pose that is not ambiguous; else none: the odometry holds.
@@ -209,8 +229,12 @@ class GraphBuilder {
   // window's edge) and nothing confirmed either.
   std::optional<IcpResult> MatchOrRecover(const PointCloud& cloud, const SE2& predicted, bool* doubt) {
     CorrelativeOptions co;
-    co.linear_window = o_.track_linear_window;
-    co.angular_window = o_.track_angular_window;
+    co.linear_window = Window(recent_shift_, o_.track_linear_window);
+    co.angular_window = Window(recent_turn_, o_.track_angular_window);
+    // The pull to the prediction as strong per metre and per degree as in
+    // the usual window: along a corridor it is what holds the pose.
+    co.penalty_linear_window = o_.track_linear_window;
+    co.penalty_angular_window = o_.track_angular_window;
     CorrelativeResult cr;
     const IcpResult narrow = MatchLocalMap(cloud, predicted, co, &cr);
     const SE2 moved = predicted.Between(cr.pose);
@@ -222,7 +246,12 @@ class GraphBuilder {
     co.linear_window = o_.recovery_linear_window;
     co.angular_window = M_PI;
     co.distance_penalty = 0.02;  // the prediction is what is in doubt
+    co.penalty_linear_window = co.penalty_angular_window = 0;
     co.runner_up_distance = 0.5;
+    // A pose turned 20 degrees or more is another hypothesis wherever it
+    // lies; one along the best's ridge (a corridor) is not.
+    co.runner_up_angle = 0.35;
+    co.ridge_share = o_.recovery_ridge_share;
     const IcpResult wide = MatchLocalMap(cloud, predicted, co, &cr);
     // The wide pose must beat the narrow one clearly, the more clearly the
     // more right that one looked: repeated rooms and flipped corridors offer
@@ -256,8 +285,11 @@ class GraphBuilder {
     // pulling the pose along its free axis on a few stray pairs: keep the
     // search's pose (which leans on the odometry there) and measure its
     // fit without iterating.
+    // An ICP that lost its pairs on the way (it ran off the map's points)
+    // says nothing against the search's pose either: measure that one.
     const SE2 slide = cr.pose.Between(icp.pose);
-    if (slide.translation().norm() > o_.track_max_slide || std::abs(slide.theta()) > 0.05) {
+    if (slide.translation().norm() > o_.track_max_slide || std::abs(slide.theta()) > 0.05 ||
+        !icp.converged) {
       IcpOptions still;
       still.max_iterations = 0;
       icp = IcpMatch(*local_->fine, icp_cloud, cr.pose, still);
@@ -288,7 +320,7 @@ class GraphBuilder {
     if (lost_since_keyframe_) info *= o_.lost_information_scale;
     e.information.topLeftCorner<3, 3>() = info;
     graph_.AddEdge(e);
-    res_.keyframes.push_back({i, path_, std::move(cloud)});
+    res_.keyframes.push_back({i, path_, std::move(cloud), lost_});
     lost_since_keyframe_ = false;
     scan_kf_[i] = K;
     return K;
@@ -372,9 +404,22 @@ class GraphBuilder {
 
   void RebuildLocalMap() {
     PointCloud world;
-    const size_t K = res_.keyframes.size();
-    const size_t first = K > static_cast<size_t>(o_.local_map_keyframes) ? K - o_.local_map_keyframes : 0;
-    for (size_t k = first; k < K; ++k) world.Append(res_.keyframes[k].cloud, KeyframePose(k));
+    // The last keyframes whose poses the scans confirmed. One placed by the
+    // odometry alone while tracking was lost may be turned or shifted: in
+    // the local map it would drag the next scans with it, and they could
+    // never be matched back. Looking back at most twice the usual span:
+    // after a longer loss the trusted keyframes are out of sight and the
+    // recent ones are all there is.
+    const size_t K = res_.keyframes.size(), n = static_cast<size_t>(o_.local_map_keyframes);
+    const size_t oldest = K > 2 * n ? K - 2 * n : 0;
+    std::vector<size_t> use;
+    for (size_t k = K; k-- > oldest && use.size() < n;)
+      if (!res_.keyframes[k].lost) use.push_back(k);
+    if (use.empty())
+      for (size_t k = K; k-- > oldest && use.size() < n;) use.push_back(k);
+    // Oldest first, as Downsample keeps the first point of each cell.
+    for (auto it = use.rbegin(); it != use.rend(); ++it)
+      world.Append(res_.keyframes[*it].cloud, KeyframePose(*it));
     const auto t0 = Clock::now();
     // Overlapping keyframes repeat points; one per 2.5 cm is plenty.
     local_ = std::make_unique<MapPair>(Downsample(world, 0.025));
@@ -399,7 +444,9 @@ class GraphBuilder {
   const MapperOptions& o_;
   std::ostream* progress_;
   std::deque<double> recent_inliers_;  // of the last good matches
+  std::deque<double> recent_turn_, recent_shift_;  // their distances from the prediction
   bool lost_since_keyframe_ = false;
+  bool lost_ = false;  // tracking on odometry alone since a scan disputed it
   Clock::time_point start_ = Clock::now(), last_report_ = start_;
   MapResult res_;
   PoseGraph& graph_;

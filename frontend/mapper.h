@@ -26,6 +26,8 @@ struct MapperOptions {
   // declares (CarmenLog::declared_max_range), else its largest reading.
   double max_range = 0;
   int local_map_keyframes = 10;
+  // The tracking search's window, widened up to 3 times as the odometry's
+  // recent errors require (2.5 times their 90th percentile).
   double track_linear_window = 0.5;
   double track_angular_window = 0.35;   // 20 degrees
   double track_min_inliers = 0.4;       // below: trust the odometry instead
@@ -37,10 +39,15 @@ struct MapperOptions {
   double track_relative_inliers = 0.7;
   // The wide search around the prediction: every heading, +- this many metres.
   double recovery_linear_window = 2.0;
+  // Its ambiguity test: a pose at the best's heading joined to it by a
+  // ridge whose score never falls below this share (a corridor's length)
+  // does not count as a second hypothesis (CorrelativeOptions::ridge_share).
+  double recovery_ridge_share = 0.85;
   // When the wide search fails too and the scan disputed the odometry (its
-  // best pose at the window's edge), the step keeps the odometry with its
-  // information scaled by this (never a confident wrong edge), and loop
-  // closures re-anchor it later.
+  // best pose at the window's edge), tracking is lost until a match holds
+  // again: those steps keep the odometry with its information scaled by
+  // this (never a confident wrong edge), keyframes made meanwhile stay out
+  // of the local map, and loop closures re-anchor them later.
   double lost_information_scale = 0.01;
 
   double loop_min_travel = 8.0;         // metres of path between the two ends
@@ -69,6 +76,9 @@ struct KeyFrame {
   size_t scan = 0;
   double path = 0;   // metres travelled (tracked) from the start
   PointCloud cloud;  // robot frame
+  // Its pose came from the odometry alone while the scans disputed it: kept
+  // out of the local map, which it might have turned.
+  bool lost = false;
 };
 
 struct MapperStats {

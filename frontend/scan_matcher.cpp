@@ -146,6 +146,42 @@ MatchMap::MatchMap(const PointCloud& world, double resolution, double radius, do
   }
 }
 
+void MatchMap::BuildPyramid(int levels) const {
+  levels = std::min(levels, kBlockBits);
+  if (levels > 0 && pdir_.empty()) {
+    // The squares reach up to 15 cells up and right: the blocks below and
+    // left of a filled one hold pooled values too.
+    const int bh = bw_ ? static_cast<int>(dir_.size()) / bw_ : 0;
+    pdir_.assign(dir_.size(), -1);
+    for (int by = 0; by < bh; ++by)
+      for (int bx = 0; bx < bw_; ++bx) {
+        bool near = false;
+        for (int k = 0; k < 4 && !near; ++k) {
+          const int x = bx + (k & 1), y = by + (k >> 1);
+          near = x < bw_ && y < bh && dir_[static_cast<size_t>(y) * bw_ + x] >= 0;
+        }
+        if (!near) continue;
+        pdir_[static_cast<size_t>(by) * bw_ + bx] = static_cast<int>(block_pos_.size());
+        block_pos_.emplace_back(bx, by);
+      }
+  }
+  const size_t cells = block_pos_.size() * kBlockSide * kBlockSide;
+  for (int l = static_cast<int>(pooled_.size()) + 1; l <= levels; ++l) {
+    // Level l from level l - 1: the square of side 2^l is four of side 2^(l-1).
+    const int h = 1 << (l - 1);
+    std::vector<float> next(cells, 0.f);
+    for (size_t b = 0; b < block_pos_.size(); ++b) {
+      const int x0 = block_pos_[b].first << kBlockBits, y0 = block_pos_[b].second << kBlockBits;
+      for (int y = y0; y < y0 + kBlockSide; ++y)
+        for (int x = x0; x < x0 + kBlockSide; ++x)
+          next[Slot(static_cast<int>(b), x, y)] =
+              std::max(std::max(PooledAtCell(l - 1, x, y), PooledAtCell(l - 1, x + h, y)),
+                       std::max(PooledAtCell(l - 1, x, y + h), PooledAtCell(l - 1, x + h, y + h)));
+    }
+    pooled_.push_back(std::move(next));
+  }
+}
+
 int MatchMap::Nearest(const Eigen::Vector2d& p) const {
   const int cx = static_cast<int>(std::floor((p.x() - origin_.x()) / res_));
   const int cy = static_cast<int>(std::floor((p.y() - origin_.y()) / res_));
@@ -162,12 +198,16 @@ struct Candidate {
   Eigen::Vector2d t = Eigen::Vector2d::Zero();
 };
 
+// The distance over which the pull to the guess grows to its full size.
+double PenaltyScale(double penalty_window, double window) {
+  return std::max(penalty_window > 0 ? penalty_window : window, 1e-6);
+}
+
 // Scores every (theta, dx, dy) with theta in `angles` and translations on
 // the map's grid within +-n cells of `center`.
 void Search(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
             const std::vector<double>& angles, const Eigen::Vector2d& center, int n,
-            const SE2& guess, const CorrelativeOptions& o, Candidate* best,
-            std::vector<Candidate>* all = nullptr) {
+            const SE2& guess, const CorrelativeOptions& o, Candidate* best) {
   const double res = map.resolution();
   std::vector<int> cx(scan.size()), cy(scan.size());
   const double inv_n = 1.0 / std::max<size_t>(1, scan.size());
@@ -187,18 +227,162 @@ void Search(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
         for (size_t i = 0; i < scan.size(); ++i) sum += map.LikelihoodAtCell(cx[i] + dx, cy[i] + dy);
         sums[static_cast<size_t>(dy + n) * (2 * n + 1) + dx + n] = sum;
       }
-    const double da = NormalizeAngle(theta - guess.theta()) / std::max(o.angular_window, 1e-6);
+    const double da = NormalizeAngle(theta - guess.theta()) / PenaltyScale(o.penalty_angular_window, o.angular_window);
     for (int dy = -n; dy <= n; ++dy)
       for (int dx = -n; dx <= n; ++dx) {
         const Eigen::Vector2d t = center + Eigen::Vector2d(dx * res, dy * res);
-        const double dl = (t - guess.translation()).norm() / std::max(o.linear_window, 1e-6);
+        const double dl = (t - guess.translation()).norm() / PenaltyScale(o.penalty_linear_window, o.linear_window);
         const double score = sums[static_cast<size_t>(dy + n) * (2 * n + 1) + dx + n] * inv_n *
                              (1 - o.distance_penalty * std::min(1.0, dl * dl)) *
                              (1 - o.distance_penalty * std::min(1.0, da * da));
         if (score > best->score) *best = {score, theta, t};
-        if (all) all->push_back({score, theta, t});
       }
   }
+}
+
+// The coarse level's search space: every angle of `angles` and every
+// translation within +-n cells of `center`, each scan point's cell at zero
+// offset per angle.
+struct SearchSpace {
+  std::vector<double> angles;
+  std::vector<std::vector<int>> cx, cy;  // per angle, per point
+  Eigen::Vector2d center;
+  int n = 0;
+};
+
+SearchSpace MakeSpace(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
+                      std::vector<double> angles, const Eigen::Vector2d& center, int n) {
+  SearchSpace sp;
+  sp.center = center;
+  sp.n = n;
+  const double res = map.resolution();
+  for (double theta : angles) {
+    const double c = std::cos(theta), s = std::sin(theta);
+    std::vector<int> cx(scan.size()), cy(scan.size());
+    for (size_t i = 0; i < scan.size(); ++i) {
+      cx[i] = static_cast<int>(std::floor(
+          (c * scan[i].x() - s * scan[i].y() + center.x() - map.origin().x()) / res));
+      cy[i] = static_cast<int>(std::floor(
+          (s * scan[i].x() + c * scan[i].y() + center.y() - map.origin().y()) / res));
+    }
+    sp.cx.push_back(std::move(cx));
+    sp.cy.push_back(std::move(cy));
+  }
+  sp.angles = std::move(angles);
+  return sp;
+}
+
+// A square of 2^level x 2^level translations from offset (x, y) up, at one angle.
+struct Node {
+  double bound;
+  int angle, x, y, level;
+  bool operator<(const Node& o) const { return bound < o.bound; }
+};
+
+// Branch and bound (as in Hess et al. 2016's real-time loop closure): a
+// node's pooled score bounds every translation in its square, so squares
+// are split best first and those below the best found are never scored
+// exactly. Returns the exactly scored poses whose score reached `floor`
+// times the best at that moment (the best among them), for the runner-up.
+std::vector<Candidate> BranchAndBound(const MatchMap& map, const SearchSpace& sp, const SE2& guess,
+                                      const CorrelativeOptions& o, double floor) {
+  const int span = 2 * sp.n + 1;
+  int top = 0;
+  while (top < 4 && (span >> top) > 4) ++top;
+  map.BuildPyramid(top);
+  top = std::min(top, map.pyramid_levels());
+  const size_t np = sp.cx.empty() ? 0 : sp.cx[0].size();
+  const double inv_n = 1.0 / std::max<size_t>(1, np);
+  auto sum = [&](int a, int level, int x, int y) {
+    double total = 0;
+    const std::vector<int>&cx = sp.cx[a], &cy = sp.cy[a];
+    for (size_t i = 0; i < np; ++i) total += map.PooledAtCell(level, cx[i] + x, cy[i] + y);
+    return total * inv_n;
+  };
+  std::vector<Node> heap;
+  for (int a = 0; a < static_cast<int>(sp.angles.size()); ++a)
+    for (int y = -sp.n; y <= sp.n; y += 1 << top)
+      for (int x = -sp.n; x <= sp.n; x += 1 << top) heap.push_back({sum(a, top, x, y), a, x, y, top});
+  std::make_heap(heap.begin(), heap.end());
+  std::vector<Candidate> scored;
+  double best = -1;
+  const double res = map.resolution();
+  while (!heap.empty() && heap.front().bound >= std::max(0.0, floor * best)) {
+    std::pop_heap(heap.begin(), heap.end());
+    const Node node = heap.back();
+    heap.pop_back();
+    if (node.level == 0) {
+      // Exact: the same sum the exhaustive search takes, with its pull to the guess.
+      const double theta = sp.angles[node.angle];
+      const Eigen::Vector2d t = sp.center + Eigen::Vector2d(node.x * res, node.y * res);
+      const double da = NormalizeAngle(theta - guess.theta()) / PenaltyScale(o.penalty_angular_window, o.angular_window);
+      const double dl = (t - guess.translation()).norm() / PenaltyScale(o.penalty_linear_window, o.linear_window);
+      const double score = node.bound * (1 - o.distance_penalty * std::min(1.0, dl * dl)) *
+                           (1 - o.distance_penalty * std::min(1.0, da * da));
+      if (score >= floor * best) scored.push_back({score, theta, t});
+      best = std::max(best, score);
+      continue;
+    }
+    const int h = 1 << (node.level - 1);
+    for (int k = 0; k < 4; ++k) {
+      const int x = node.x + (k & 1) * h, y = node.y + (k >> 1) * h;
+      if (x > sp.n || y > sp.n) continue;
+      heap.push_back({sum(node.angle, node.level - 1, x, y), node.angle, x, y, node.level - 1});
+      std::push_heap(heap.begin(), heap.end());
+    }
+  }
+  return scored;
+}
+
+// The mean likelihood of the scan at one pose, on the map's grid.
+double ScorePose(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan, double theta,
+                 const Eigen::Vector2d& t) {
+  const double c = std::cos(theta), s = std::sin(theta), res = map.resolution();
+  double sum = 0;
+  for (const auto& p : scan)
+    sum += map.LikelihoodAtCell(
+        static_cast<int>(std::floor((c * p.x() - s * p.y() + t.x() - map.origin().x()) / res)),
+        static_cast<int>(std::floor((s * p.x() + c * p.y() + t.y() - map.origin().y()) / res)));
+  return scan.empty() ? 0 : sum / scan.size();
+}
+
+// Whether the straight way from `a` to `b` at a's heading keeps the score
+// up (no dip below `share` of the lower end): the two lie on one ridge, as
+// poses along a corridor do, not on two separate peaks.
+bool OnOneRidge(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan, const Candidate& a,
+                const Candidate& b, double share) {
+  const double low = share * std::min(a.score, b.score);
+  const int steps = std::max(2, static_cast<int>(std::ceil((b.t - a.t).norm() / map.resolution())));
+  for (int k = 1; k < steps; ++k)
+    if (ScorePose(map, scan, a.theta, a.t + (b.t - a.t) * (static_cast<double>(k) / steps)) < low)
+      return false;
+  return true;
+}
+
+// The best of the scored poses, and the best of those distinct from it
+// (over the best's score; at most the floor when none reached it).
+std::pair<Candidate, double> BestAndRunnerUp(const MatchMap& map,
+                                             const std::vector<Eigen::Vector2d>& scan,
+                                             std::vector<Candidate> scored,
+                                             const CorrelativeOptions& o) {
+  std::sort(scored.begin(), scored.end(),
+            [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+  const Candidate best = scored.empty() ? Candidate{} : scored.front();
+  double runner_up = 0;
+  int ridge_checks = 0;
+  for (const Candidate& c : scored) {
+    const bool turned =
+        o.runner_up_angle > 0 && std::abs(NormalizeAngle(c.theta - best.theta)) > o.runner_up_angle;
+    if (!turned && (c.t - best.t).norm() <= o.runner_up_distance) continue;
+    // Same heading, somewhere along the best's ridge: not another place.
+    if (!turned && o.ridge_share > 0 && std::abs(NormalizeAngle(c.theta - best.theta)) < 0.05 &&
+        ridge_checks++ < 50 && OnOneRidge(map, scan, best, c, o.ridge_share))
+      continue;
+    runner_up = c.score;
+    break;
+  }
+  const double ratio = best.score > 0 ? runner_up / best.score : 1.0;
+  return {best, o.runner_up_distance > 0 ? std::min(1.0, ratio) : 1.0};
 }
 
 }  // namespace
@@ -212,19 +396,18 @@ CorrelativeResult CorrelativeMatch(const MatchMap& coarse, const MatchMap& fine,
   const int na = static_cast<int>(std::ceil(o.angular_window / coarse_step));
   for (int k = -na; k <= na; ++k) angles.push_back(guess.theta() + k * coarse_step);
   const int n = static_cast<int>(std::ceil(o.linear_window / coarse.resolution()));
-  std::vector<Candidate> all;
-  Search(coarse, scan, angles, guess.translation(), n, guess, o, &best,
-         o.runner_up_distance > 0 ? &all : nullptr);
-  double runner_up = 0;
-  for (const Candidate& c : all)
-    if ((c.t - best.t).norm() > o.runner_up_distance) runner_up = std::max(runner_up, c.score);
+  const SearchSpace space = MakeSpace(coarse, scan, angles, guess.translation(), n);
+  // Without a runner-up to find, only the best matters: nothing below it is split.
+  const double floor = o.runner_up_distance > 0 ? o.runner_up_floor : 1.0;
+  const auto [coarse_best, ratio] =
+      BestAndRunnerUp(coarse, scan, BranchAndBound(coarse, space, guess, o, floor), o);
+  best = coarse_best;
   angles.clear();
   for (int k = -2; k <= 2; ++k) angles.push_back(best.theta + k * 0.5 * o.angular_step);
   const int nf = static_cast<int>(std::ceil(coarse.resolution() / fine.resolution()));
   Candidate fine_best;
   Search(fine, scan, angles, best.t, nf, guess, o, &fine_best);
-  return {SE2(fine_best.t.x(), fine_best.t.y(), fine_best.theta), fine_best.score,
-          best.score > 0 ? runner_up / best.score : 1.0};
+  return {SE2(fine_best.t.x(), fine_best.t.y(), fine_best.theta), fine_best.score, ratio};
 }
 
 namespace {

@@ -4,6 +4,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <utility>
 #include <vector>
 
 #include "cairn/graph/geometry.h"
@@ -43,6 +45,23 @@ class MatchMap {
     const int b = dir_[static_cast<size_t>(cy >> kBlockBits) * bw_ + (cx >> kBlockBits)];
     return b < 0 ? 0.f : like_[Slot(b, cx, cy)];
   }
+  // Max-pooled likelihoods for branch and bound: level l holds, at cell
+  // (x, y), the highest likelihood over the 2^l x 2^l cells from (x, y) up,
+  // so that one look-up bounds a whole square of translations. Level 0 is
+  // the field itself; BuildPyramid(L) makes levels 1..L (L <= 4), once: a
+  // cache, which is why it is const.
+  void BuildPyramid(int levels) const;
+  int pyramid_levels() const { return static_cast<int>(pooled_.size()); }
+  float PooledAtCell(int level, int cx, int cy) const {
+    if (level == 0) return LikelihoodAtCell(cx, cy);
+    // A square from below or left of the grid: the one from its edge covers
+    // what of it lies inside, a bound though not the exact maximum.
+    cx = std::max(cx, 0);
+    cy = std::max(cy, 0);
+    if (cx >= w_ || cy >= h_ || pdir_.empty()) return 0.f;
+    const int b = pdir_[static_cast<size_t>(cy >> kBlockBits) * bw_ + (cx >> kBlockBits)];
+    return b < 0 ? 0.f : pooled_[level - 1][Slot(b, cx, cy)];
+  }
   // Index of the nearest reference point to p, or -1 beyond the radius.
   int Nearest(const Eigen::Vector2d& p) const;
   const PointCloud& cloud() const { return cloud_; }
@@ -63,6 +82,11 @@ class MatchMap {
   int w_ = 0, h_ = 0, bw_ = 0;
   std::vector<int> dir_;  // block index per block position, -1 if empty
   std::vector<float> like_;
+  // The pyramid, built on first use: its own blocks (those of the field and
+  // their neighbours below and left), their positions, the levels 1...
+  mutable std::vector<int> pdir_;
+  mutable std::vector<std::pair<int, int>> block_pos_;
+  mutable std::vector<std::vector<float>> pooled_;
   std::vector<int> nearest_;
 };
 
@@ -73,9 +97,26 @@ struct CorrelativeOptions {
   // Gentle preference for the guess, so that a corridor's flat score does
   // not let the estimate slide along it.
   double distance_penalty = 0.1;
+  // The distances (metres, radians) at which that pull is full: the
+  // windows when 0, so that widening a window would weaken it.
+  double penalty_linear_window = 0, penalty_angular_window = 0;
   // When positive, also find the best coarse score at least this far (metres)
   // from the winner: a close second means repeated structure.
   double runner_up_distance = 0;
+  // When positive, a pose this far in heading (radians) from the winner is
+  // distinct too, wherever it is: a room turned half round, a corridor
+  // seen from its other end.
+  double runner_up_angle = 0;
+  // When positive, a pose at the winner's heading joined to it by a ridge
+  // (the score along the way never below this share of the lower end, as
+  // along a corridor) is not distinct: the heading is certain there even
+  // if the place along the ridge is not.
+  double ridge_share = 0;
+  // The coarse level is searched by branch and bound on the coarse map's
+  // pyramid (exactly the exhaustive search's best pose); a runner-up ratio
+  // below this share may be reported lower than it is (tests against a
+  // higher ratio decide the same).
+  double runner_up_floor = 0.7;
 };
 
 struct CorrelativeResult {
@@ -86,8 +127,9 @@ struct CorrelativeResult {
   double runner_up_ratio = 1;
 };
 
-// Exhaustive search on `coarse` (step = its resolution, angular step x2),
-// then a local search on `fine` around the best coarse pose.
+// The best pose on `coarse` (translations on its grid, angular step x2),
+// found by branch and bound over its pyramid (built here when missing),
+// then a local search on `fine` around it.
 CorrelativeResult CorrelativeMatch(const MatchMap& coarse, const MatchMap& fine,
                                    const std::vector<Eigen::Vector2d>& scan, const SE2& guess,
                                    const CorrelativeOptions& options);

@@ -134,6 +134,43 @@ Trajectory FromTum(const std::string& path, std::istream& in) {
   return t;
 }
 
+// cairn map's PREFIX_keyframes.csv (keyframe,scan,timestamp,x,y,theta) or
+// --scan-poses file (scan,timestamp,x,y,theta): planar poses that know
+// their scan index.
+Trajectory FromCsv(const std::string& path, std::istream& in) {
+  TextInput input(in, path);
+  std::string line;
+  input.Next(&line);
+  const bool with_keyframe = line.rfind("keyframe,", 0) == 0;
+  const size_t fields = with_keyframe ? 6 : 5;
+  Trajectory t;
+  while (input.Next(&line)) {
+    const size_t no = input.line();
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    std::vector<std::string> f;
+    std::istringstream is(line);
+    for (std::string cell; std::getline(is, cell, ',');) f.push_back(cell);
+    if (f.size() != fields)
+      throw ParseError(path, no, "expected " + std::to_string(fields) + " comma-separated fields");
+    double v[5];  // scan, timestamp, x, y, theta
+    for (size_t k = 0; k < 5; ++k) {
+      char* end = nullptr;
+      const std::string& cell = f[k + (with_keyframe ? 1 : 0)];
+      v[k] = std::strtod(cell.c_str(), &end);
+      if (cell.empty() || *end != '\0' || !std::isfinite(v[k]))
+        throw ParseError(path, no, "bad number '" + cell + "'");
+    }
+    if (v[0] < 0 || v[0] != std::floor(v[0])) throw ParseError(path, no, "bad scan index");
+    if (std::abs(v[1]) > kMaxAbsStamp) throw ParseError(path, no, "timestamp beyond 1e12 s");
+    if (std::abs(v[2]) > kMaxAbsCoordinate || std::abs(v[3]) > kMaxAbsCoordinate ||
+        std::abs(v[4]) > kMaxAbsAngle)
+      throw ParseError(path, no, "coordinate or heading out of range");
+    t.Add(v[1], SE2(v[2], v[3], v[4]), static_cast<long>(v[0]),
+          f[with_keyframe ? 2 : 1]);
+  }
+  return t;
+}
+
 }  // namespace
 
 Trajectory ReadTrajectory(const std::string& path) {
@@ -152,6 +189,11 @@ Trajectory ReadTrajectory(const std::string& path) {
     if (tag == "FLASER" || tag == "ODOM" || tag == "PARAM" || tag == "ROBOTLASER1")
       return FromCarmen(path);
     if (tag.rfind("VERTEX", 0) == 0 || tag.rfind("EDGE", 0) == 0) return FromG2o(path);
+    if (tag.rfind("keyframe,scan,", 0) == 0 || tag.rfind("scan,timestamp,", 0) == 0) {
+      in.clear();
+      in.seekg(0);
+      return FromCsv(path, in);
+    }
     break;
   }
   in.clear();

@@ -45,7 +45,10 @@ inline constexpr double kMaxAbsStamp = 1e12;
 
 // Reads by content: a file that starts like a CARMEN log (or ends in .log /
 // .log.gz) gives its reference poses; a g2o file its VERTEX_SE2 or
-// VERTEX_SE3:QUAT poses (a 3D graph gives a 3D trajectory); otherwise TUM
+// VERTEX_SE3:QUAT poses (a 3D graph gives a 3D trajectory); cairn map's CSV
+// files (header "keyframe,scan,timestamp,x,y,theta" or "scan,timestamp,x,y,
+// theta") planar poses with their scan indices, which pair with a log's
+// scans even where its printed stamps repeat; otherwise TUM
 // text ("timestamp tx ty tz qx qy qz qw", '#' starts a comment line), 3D as
 // soon as one pose leaves the plane. Errors are "FILE:LINE: message"
 // (cairn::ParseError).

@@ -216,6 +216,15 @@ ErrorStats FromSquares(const std::vector<double>& squares, bool to_degrees = fal
   return st;
 }
 
+}  // namespace
+
+ErrorStats Summarize(std::vector<double> errors) {
+  for (double& e : errors) e *= e;
+  return FromSquares(errors);
+}
+
+namespace {
+
 template <typename Pose>
 void AbsoluteErrors(const std::vector<Pose>& est, const std::vector<Pose>& ref,
                     const std::vector<std::pair<size_t, size_t>>& pairs, Alignment how,

@@ -37,7 +37,7 @@ void PrintErrors(const char* what, const frontend::TrajectoryErrors& e) {
 }
 
 struct MapArgs {
-  std::string log_path, prefix, graph_path, reference_map, solver = "ceres", frame = "first-scan";
+  std::string log_path, prefix, graph_path, reference_map, scan_poses, solver = "ceres", frame = "first-scan";
   double resolution = 0.05, max_range = 0, kf_dist = 0.5, kf_angle_deg = 25;
   double no_return_clear = frontend::GridOptions{}.max_clear_range;
   bool quiet = false;
@@ -48,6 +48,9 @@ void DeclareOptions(ArgParser& args, MapArgs& a) {
   args.Option("output", &a.prefix, "PREFIX", "output prefix (required)");
   args.Alias("-o", "output");
   args.Option("graph", &a.graph_path, "OUT.g2o", "also write the optimised pose graph (g2o; TORO if *.graph)");
+  args.Option("scan-poses", &a.scan_poses, "FILE.csv",
+              "also write every scan's pose (scan,timestamp,x,y,theta; the keyframe's optimised "
+              "pose and the scan's tracked offset from it), e.g. for cairn eval --relations");
   args.Option("resolution", &a.resolution, "M", "grid cell size in metres");
   args.Option("solver", &a.solver, "NAME", "back-end: ceres (Levenberg-Marquardt) or gn (Gauss-Newton)");
   args.Option("max-range", &a.max_range, "M",
@@ -109,6 +112,7 @@ void DeclareFiles(const MapArgs& a, CommandOutputs& outputs) {
   outputs.Output(a.prefix + "_keyframes.csv");
   outputs.GraphOutput(a.graph_path);
   outputs.Output(a.reference_map, ".png");
+  outputs.Output(a.scan_poses, ".csv");
   outputs.Check();
 }
 
@@ -122,6 +126,17 @@ void WriteKeyframes(const frontend::CarmenLog& log, const frontend::MapResult& r
     const SE2 pose = ToSE2(res.graph.vertex(static_cast<int64_t>(k)).x);
     std::snprintf(buf, sizeof buf, ",%.17g,%.17g,%.17g\n", pose.x(), pose.y(), pose.theta());
     o << k << ',' << s << ',' << log.scans[s].timestamp_text << buf;
+  }
+}
+
+// Every scan at the pose the map draws it, with its index and stamp.
+void WriteScanPoses(const frontend::CarmenLog& log, const frontend::MapResult& res, std::ostream& o) {
+  o << "scan,timestamp,x,y,theta\n";
+  char buf[96];
+  for (size_t s = 0; s < res.scan_poses.size(); ++s) {
+    const SE2& pose = res.scan_poses[s];
+    std::snprintf(buf, sizeof buf, ",%.17g,%.17g,%.17g\n", pose.x(), pose.y(), pose.theta());
+    o << s << ',' << log.scans[s].timestamp_text << buf;
   }
 }
 
@@ -150,6 +165,8 @@ frontend::Trajectory WriteOutputs(const MapArgs& a, const frontend::CarmenLog& l
   });
   if (!a.graph_path.empty())
     outputs.WriteGraph(a.graph_path, res.graph);
+  if (!a.scan_poses.empty())
+    outputs.Write(a.scan_poses, [&](std::ostream& o) { WriteScanPoses(log, res, o); });
   return traj;
 }
 

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 
 #include "cairn/graph/graph_io.h"
@@ -508,6 +509,46 @@ TEST(Mapper, RecoversFromAnOdometryGlitch) {
     const SE2& last = res.scan_poses.back();
     EXPECT_LT((last.translation() - last_truth.translation()).norm(), 0.05) << heading;
     EXPECT_LT(std::abs(NormalizeAngle(last.theta() - last_truth.theta())), 0.02) << heading;
+  }
+}
+
+// Odometry whose heading is off by up to 35 degrees at every step, seeds
+// 1-3: more than the usual +-20 degree window. The first steps beyond it
+// go to the wide search; then the window widens to what the odometry's
+// errors have been, so that most such steps are matched in the narrow
+// search, and the drive is tracked to the end.
+TEST(Mapper, WindowFollowsPoorOdometry) {
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::ostringstream text;
+    text.precision(17);
+    std::vector<SE2> truth;
+    int beyond = 0;
+    for (int i = 0; i < 60; ++i) {
+      const SE2 pose(1.5 + 0.08 * i, 1.2 + 0.03 * i, 0.2 + 0.01 * i);
+      const double err = 35 * u(rng) * M_PI / 180;
+      beyond += i > 0 && std::abs(err) > 20 * M_PI / 180;
+      const SE2 odom = i == 0 ? pose : pose * SE2(0.03 * u(rng), 0.03 * u(rng), err);
+      truth.push_back(pose);
+      const std::string stamp = std::to_string(100 + i) + ".5";
+      text << "ODOM " << odom.x() << ' ' << odom.y() << ' ' << odom.theta() << " 0 0 0 " << stamp
+           << " h " << stamp << "\n";
+      const LaserScan s = Render(Room(), pose);
+      text << "FLASER " << s.ranges.size();
+      for (float r : s.ranges) text << ' ' << r;
+      for (int k = 0; k < 2; ++k) text << ' ' << pose.x() << ' ' << pose.y() << ' ' << pose.theta();
+      text << ' ' << stamp << " h " << stamp << "\n";
+    }
+    const MapResult res = BuildPoseGraph(ReadCarmenLog(WriteTemp("cairn_poor_odom.log", text.str())),
+                                         MapperOptions{});
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    EXPECT_LT(res.stats.wide_searches, static_cast<size_t>(beyond));
+    for (size_t i = 0; i < truth.size(); ++i) {
+      const SE2 rel = truth[0].Between(truth[i]);
+      ASSERT_LT((res.scan_poses[i].translation() - rel.translation()).norm(), 0.05) << "scan " << i;
+      ASSERT_LT(std::abs(NormalizeAngle(res.scan_poses[i].theta() - rel.theta())), 0.02) << "scan " << i;
+    }
   }
 }
 

@@ -6,8 +6,9 @@
 #include <stdexcept>
 
 #include "cairn/graph/chi2.h"
+#include "cairn/graph/initialization.h"
 #include "cairn/robust/leverage.h"
-#include "cairn/robust/local_consistency.h"
+#include "cairn/robust/pairwise_consistency.h"
 #include "cairn/solvers/determinacy.h"
 #include "cairn/solvers/graph_factors.h"
 
@@ -76,6 +77,15 @@ struct RejectionState {
   PoseGraph inliers;  // `graph` without the rejected edges
   std::vector<size_t> kept;    // edges of `inliers` that are loop closures
   std::vector<size_t> origin;  // per edge of `inliers`, its index in `graph`
+
+  // Every inner solve goes through here, so the result covers the run.
+  SolveResult Solve(PoseGraph& g, int iterations) {
+    SolveResult r = solve(g, iterations);
+    ++out.rounds;
+    out.iterations += r.iterations;
+    out.solve_time_s += r.time_s;
+    return r;
+  }
 };
 
 // The weighted problem: weights scale the loop closures' information; a
@@ -95,7 +105,7 @@ SolveResult SolveWeighted(RejectionState& s, const std::vector<bool>& in, int it
     }
     g.AddEdge(e);
   }
-  const SolveResult r = s.solve(g, iterations);
+  const SolveResult r = s.Solve(g, iterations);
   for (size_t v = 0; v < g.vertices().size(); ++v) s.work.vertices()[v].x = g.vertices()[v].x;
   return r;
 }
@@ -145,7 +155,6 @@ void Gnc(RejectionState& s, const std::vector<bool>& in, double mu, const char* 
     // has become the truncated cost.
     if (round > 0 && undecided < 1e-6 * std::max<size_t>(1, count) && mu > 1) break;
     s.out.solve = SolveWeighted(s, in, options.inner_iterations);
-    ++s.out.rounds;
     s.r2 = Residuals(s);
     if (options.verbose)
       std::fprintf(stderr,
@@ -157,24 +166,30 @@ void Gnc(RejectionState& s, const std::vector<bool>& in, double mu, const char* 
   }
 }
 
-// Local consistency: the loop closures a neighbour agrees with (none when
-// the stage is off).
-std::vector<bool> ConfirmedByNeighbours(const RejectionState& s, size_t* n_confirmed) {
+// Pairwise consistency: the largest set of loop closures no two of which
+// close an inconsistent cycle with the odometry (none when the stage is off).
+std::vector<bool> ConfirmedByConsistency(const RejectionState& s, size_t* n_confirmed) {
   std::vector<bool> confirmed(s.closures.size(), false);
   *n_confirmed = 0;
-  if (s.options.consistency_window <= 0) return confirmed;
-  const std::vector<int> support =
-      LocalLoopClosureSupport(s.graph, s.options.consistency_window, s.c2);
-  for (size_t i = 0; i < s.closures.size(); ++i) *n_confirmed += confirmed[i] = support[i] > 0;
+  if (s.options.consistency_window <= 0 || s.closures.empty()) return confirmed;
+  ConsistentSetOptions o;
+  o.threshold_chi2 = s.c2;
+  o.window = s.options.consistency_window;
+  o.partners = s.options.consistency_partners;
+  const ConsistentSet set = MaximumConsistentSet(s.graph, o);
+  confirmed = set.in;
+  for (bool x : confirmed) *n_confirmed += x;
   if (s.options.verbose)
     std::fprintf(stderr,
-                 "local consistency: %zu of %zu loop closures agree with a neighbour within "
-                 "%d ids\n",
-                 *n_confirmed, s.closures.size(), s.options.consistency_window);
+                 "pairwise consistency: %zu of %zu loop closures mutually consistent (%s; %zu "
+                 "pairs tested, %zu inconsistent beyond %.4g, variance factor %.3g)\n",
+                 *n_confirmed, s.closures.size(), set.exact ? "exact" : "greedy",
+                 set.tested_pairs, set.conflicts, s.c2 * set.variance_factor,
+                 set.variance_factor);
   return confirmed;
 }
 
-// The loop closures a neighbour confirms first, alone: least squares from
+// The consistent loop closures first, alone: least squares from
 // the starting estimate (GNC's convex start from a poor estimate, e.g.
 // odometry, can settle in a wrong basin), then GNC from there in case a
 // wrong one was confirmed. Their estimate is one the other wrong loop
@@ -183,7 +198,6 @@ std::vector<bool> ConfirmedByNeighbours(const RejectionState& s, size_t* n_confi
 void GncFromConfirmed(RejectionState& s, const std::vector<bool>& confirmed, size_t n_confirmed) {
   const double restart = 1 / (s.options.restart_chi2_factor - 1);
   s.out.solve = SolveWeighted(s, confirmed, 0);
-  ++s.out.rounds;
   s.r2 = Residuals(s);
   if (s.options.verbose)
     std::fprintf(stderr, "least squares on the %zu confirmed: chi2 %.6g, %d iterations, %.2f s\n",
@@ -223,8 +237,7 @@ void BuildInliers(RejectionState& s) {
 void SolveInliersAgain(RejectionState& s) {
   for (Vertex& v : s.work.vertices()) v.x = s.inliers.vertex(v.id).x;
   BuildInliers(s);
-  s.out.solve = s.solve(s.inliers, 0);
-  ++s.out.rounds;
+  s.out.solve = s.Solve(s.inliers, 0);
 }
 
 // Of the kept loop closures whose deletion lowers chi2 by more than c^2, the
@@ -355,12 +368,54 @@ size_t Readmit(RejectionState& s) {
   return back;
 }
 
+// A loop closure that fits the kept graph's solution is never rejected: every
+// rejected one within c^2 there comes back, the kept graph is re-solved, a
+// few passes (taking some back moves the estimate).
+void TakeBackAllFitting(RejectionState& s) {
+  for (int pass = 0; pass < s.options.max_passes && s.out.solve.usable; ++pass) {
+    size_t back = 0;
+    for (size_t k = 0; k < s.graph.edges().size(); ++k)
+      if (s.rejected[k] && EdgeChi2(s.inliers, s.graph.edges()[k]) <= s.c2) {
+        s.rejected[k] = false;
+        ++back;
+      }
+    if (back == 0) break;
+    if (s.options.verbose)
+      std::fprintf(stderr, "%zu rejected loop closures fit the kept graph's solution: kept\n",
+                   back);
+    SolveInliersAgain(s);
+  }
+}
+
+// The kept graph to its optimum. The estimate the stages leave may sit in
+// another basin than the kept graph's own optimum (it was shaped by the loop
+// closures weighed in along the way): it is solved in full from there and
+// from a fresh start (options.fresh_init on the kept graph; kFile: the
+// starting estimate), and the lower chi2 stays.
+void SolveKeptToOptimum(RejectionState& s, const PoseGraph& start) {
+  PoseGraph fresh = s.inliers;
+  for (size_t i = 0; i < fresh.vertices().size(); ++i)
+    fresh.vertices()[i].x = start.vertices()[i].x;
+  if (s.options.fresh_init != InitMethod::kFile) Initialize(fresh, s.options.fresh_init);
+  const SolveResult here = s.Solve(s.inliers, 0);
+  const SolveResult anew = s.Solve(fresh, 0);
+  const bool take_fresh = anew.usable && (!here.usable || anew.final_chi2 < here.final_chi2);
+  if (s.options.verbose)
+    std::fprintf(stderr,
+                 "kept graph in full: chi2 %.10g from the estimate (%d iterations), %.10g from "
+                 "a fresh %s start (%d iterations): %s\n",
+                 here.final_chi2, here.iterations, anew.final_chi2, ToString(s.options.fresh_init),
+                 anew.iterations, take_fresh ? "fresh" : "estimate");
+  s.out.solve = take_fresh ? anew : here;
+  if (take_fresh) s.inliers = std::move(fresh);
+}
+
 // GNC until its weights are binary, from the confirmed loop closures when
 // there are some. The verdict: a loop closure stays if its weight is up or
 // it now fits.
 void RunGnc(RejectionState& s) {
   size_t n_confirmed = 0;
-  const std::vector<bool> confirmed = ConfirmedByNeighbours(s, &n_confirmed);
+  const std::vector<bool> confirmed = ConfirmedByConsistency(s, &n_confirmed);
   if (n_confirmed > 0) {
     GncFromConfirmed(s, confirmed, n_confirmed);
   } else {
@@ -393,16 +448,15 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
 
   RunGnc(s);
   BuildInliers(s);  // at GNC's estimate
-  s.out.solve = solve(s.inliers, 0);
+  s.out.solve = s.Solve(s.inliers, 0);
   if (options.verbose)
     std::fprintf(stderr, "without the %zu rejected: chi2 %.6g, %d iterations, %.2f s\n",
                  s.closures.size() - s.kept.size(), s.out.solve.final_chi2,
                  s.out.solve.iterations, s.out.solve.time_s);
-  ++s.out.rounds;
   Verify(s);
 
-  // Re-admission. A good loop closure that no neighbour confirms and that
-  // the estimate of the confirmed ones left beyond GNC's reach stays out
+  // Re-admission. A good loop closure outside the consistent set that the
+  // estimate of the consistent ones left beyond GNC's reach stays out
   // above; at the final estimate, the innovation statistic
   // r^T (I + J Sigma J^T)^{-1} r (the rise of the optimal chi2 if it were
   // added, Sigma the exact joint covariance of its poses) tells whether the
@@ -415,14 +469,33 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
     Verify(s);
   }
 
+  TakeBackAllFitting(s);
+  if (options.final_solve) SolveKeptToOptimum(s, graph);
+
   OutlierRejectionResult out = std::move(s.out);
   for (size_t k = 0; k < graph.edges().size(); ++k)
-    if (s.rejected[k]) out.rejected.emplace_back(graph.edges()[k].from, graph.edges()[k].to);
+    if (s.rejected[k]) {
+      out.rejected.emplace_back(graph.edges()[k].from, graph.edges()[k].to);
+      out.rejected_edges.push_back(k);
+    }
   auto& dst = graph.vertices();
   for (size_t i = 0; i < dst.size(); ++i) dst[i].x = s.inliers.vertices()[i].x;
-  // Reported against the whole graph, as a plain solve would be.
+  // The run's: the input's chi2 (every edge, at the start) and the kept
+  // graph's at the end.
   out.solve.initial_chi2 = initial_chi2;
-  out.solve.final_chi2 = Chi2(graph);
+  out.solve.final_chi2 = Chi2(s.inliers);
+  return out;
+}
+
+PoseGraph WithoutEdges(const PoseGraph& graph, const std::vector<size_t>& edges) {
+  PoseGraph out = graph;
+  std::vector<bool> drop(graph.edges().size(), false);
+  for (size_t k : edges) drop.at(k) = true;
+  std::vector<Edge>& e = out.mutable_edges();
+  size_t kept = 0;
+  for (size_t k = 0; k < e.size(); ++k)
+    if (!drop[k]) e[kept++] = e[k];
+  e.resize(kept);
   return out;
 }
 

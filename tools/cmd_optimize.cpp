@@ -42,6 +42,7 @@ struct OptimizeArgs {
   double gn_damping = GaussNewtonOptions().damping;
   bool gn_no_chord = false;
   bool reject_outliers = false, no_readmit = false, no_verify = false, no_final = false;
+  bool no_scaling = false;
   OutlierRejectionOptions rejection;
 };
 
@@ -113,6 +114,9 @@ void DeclareOutlierOptions(ArgParser& args, OptimizeArgs& a) {
   args.Option("outlier-partners", &r.consistency_partners, "N",
               "with --reject-outliers: random loop closures each one's consistency is tested "
               "against, besides those within --outlier-window ids");
+  args.Flag("no-outlier-variance-scaling", &a.no_scaling,
+            "with --reject-outliers: keep the consistency tests' and GNC's thresholds as "
+            "they are, whatever noise the data show");
   args.Flag("no-outlier-final-solve", &a.no_final,
             "with --reject-outliers: skip the kept graph's last solves in full (from the "
             "estimate reached and from a fresh start)");
@@ -201,6 +205,7 @@ bool MakePlan(OptimizeArgs& a, OptimizePlan* p) {
   a.rejection.fresh_init = !a.init.empty() ? p->init : InitMethod::kAuto;
   a.rejection.verify = !a.no_verify;
   a.rejection.final_solve = !a.no_final;
+  a.rejection.scale_by_variance = !a.no_scaling;
   a.rejection.readmit = !a.no_readmit;
   // The inner solves are many: one progress line per GNC round instead.
   a.rejection.verbose = !a.quiet;

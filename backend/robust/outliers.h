@@ -44,6 +44,10 @@ struct OutlierRejectionOptions {
   // loop closure) goes through GNC first, alone; 0: no such stage.
   int consistency_window = 20;
   int consistency_partners = 40;
+  // Tighten the thresholds of the consistency tests and of GNC by the
+  // variance factor the data show (chi2 per degree of freedom, at most 1):
+  // for information far looser than the noise.
+  bool scale_by_variance = true;
   // After that stage, GNC over all loop closures starts where a residual
   // beyond this many times the threshold weighs 0 (mu = 1 / (factor - 1)).
   double restart_chi2_factor = 10;

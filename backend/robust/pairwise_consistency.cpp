@@ -358,6 +358,10 @@ ConsistentSet MaximumConsistentSet(const PoseGraph& graph, const ConsistentSetOp
   out.tested_pairs = g.tested;
   out.conflicts = g.conflicts;
   out.in = out.exact ? ExactMaximumClique(g) : GreedyWithoutConflicts(g);
+  out.supported.assign(tester.size(), false);
+  const double c2 = options.threshold_chi2 * out.variance_factor;
+  for (const TestedPair& p : pairs)
+    if (p.near && p.chi2 <= c2) out.supported[p.i] = out.supported[p.j] = true;
   return out;
 }
 

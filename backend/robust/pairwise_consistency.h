@@ -63,6 +63,11 @@ struct ConsistentSetOptions {
 
 struct ConsistentSet {
   std::vector<bool> in;     // per loop closure, in edge order
+  // Per loop closure: some loop closure whose cycle with it is short (ends
+  // within twice the window) agrees with it. A place revisited is seen from
+  // several poses in a row; a random wrong loop closure rarely has such a
+  // neighbour, and its long cycles with the rest are weak evidence either way.
+  std::vector<bool> supported;
   size_t tested_pairs = 0;  // pair tests made
   size_t conflicts = 0;     // inconsistent pairs among them
   bool exact = false;       // every pair tested and the maximum found

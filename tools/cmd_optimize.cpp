@@ -100,8 +100,9 @@ void DeclareOutlierOptions(ArgParser& args, OptimizeArgs& a) {
               "--max-iterations); the solves without the rejected ones run in full");
   args.Option("outlier-window", &r.consistency_window, "N",
               "with --reject-outliers: the largest pairwise consistent set of loop closures "
-              "(every pair whose ends lie within N ids tested, and random others) goes "
-              "through GNC first, alone (0: no such stage)");
+              "(every pair whose ends lie within N ids tested, and random others), less "
+              "those no neighbour agrees with, goes through GNC first, alone (0: no such "
+              "stage)");
   args.Option("outlier-restart", &r.restart_chi2_factor, "F",
               "with --reject-outliers: after that stage, GNC over all loop closures starts "
               "with those beyond F times the threshold at weight 0");

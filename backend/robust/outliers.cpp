@@ -71,6 +71,7 @@ struct RejectionState {
   double c2 = 0;                 // the truncation threshold
   // GNC's: c2 times the consistent set's variance factor (at most 1).
   double gnc_c2 = 0;
+  double cycle_variance = 1;  // the pairwise stage's variance factor
   std::vector<size_t> closures;  // edges of `graph` that are loop closures
   PoseGraph work;                // its vertices hold the current estimate
   std::vector<double> w, r2;     // per loop closure: GNC's weight, chi2 at `work`
@@ -95,7 +96,8 @@ struct RejectionState {
 // loop closure at weight 0, or outside the current stage, is left out
 // altogether (a negligible weight would still cost fill in the
 // factorisation: random wrong loop closures join far-apart poses).
-SolveResult SolveWeighted(RejectionState& s, const std::vector<bool>& in, int iterations) {
+SolveResult SolveWeighted(RejectionState& s, const std::vector<bool>& in, int iterations,
+                          InitMethod init = InitMethod::kFile) {
   PoseGraph g(s.graph.dimension());
   for (const Vertex& v : s.work.vertices()) g.AddVertex(v.id, v.x, v.fixed);
   size_t next = 0;  // the next loop closure, in edge order
@@ -108,6 +110,7 @@ SolveResult SolveWeighted(RejectionState& s, const std::vector<bool>& in, int it
     }
     g.AddEdge(e);
   }
+  if (init != InitMethod::kFile) Initialize(g, init);
   const SolveResult r = s.Solve(g, iterations);
   for (size_t v = 0; v < g.vertices().size(); ++v) s.work.vertices()[v].x = g.vertices()[v].x;
   return r;
@@ -180,7 +183,7 @@ void Gnc(RejectionState& s, const std::vector<bool>& in, double mu, const char* 
 // Pairwise consistency: of the largest set of loop closures no two of which
 // close an inconsistent cycle with the odometry, those a neighbour agrees
 // with (none when the stage is off).
-std::vector<bool> ConfirmedByConsistency(const RejectionState& s, size_t* n_confirmed) {
+std::vector<bool> ConfirmedByConsistency(RejectionState& s, size_t* n_confirmed) {
   std::vector<bool> confirmed(s.closures.size(), false);
   *n_confirmed = 0;
   if (s.options.consistency_window <= 0 || s.closures.empty()) return confirmed;
@@ -188,10 +191,12 @@ std::vector<bool> ConfirmedByConsistency(const RejectionState& s, size_t* n_conf
   ConsistentSetOptions o;
   o.threshold_chi2 = s.c2;
   o.window = s.options.consistency_window;
+  o.reach = 10 * o.window;
   o.partners = s.options.consistency_partners;
   o.scale_by_variance = s.options.scale_by_variance;
   const ConsistentSet set = MaximumConsistentSet(s.graph, o);
   size_t n_in = 0;
+  s.cycle_variance = set.variance_factor;
   for (size_t i = 0; i < confirmed.size(); ++i) {
     n_in += set.in[i];
     confirmed[i] = set.in[i] && set.supported[i];
@@ -225,16 +230,21 @@ double ConsistentVarianceFactor(const RejectionState& s, size_t n_confirmed) {
 }
 
 // The consistent loop closures first, alone: least squares from
-// the starting estimate (GNC's convex start from a poor estimate, e.g.
+// a fresh start (options.fresh_init) on them (GNC's convex start from a poor estimate, e.g.
 // odometry, can settle in a wrong basin), then GNC from there in case a
 // wrong one was confirmed. Their estimate is one the other wrong loop
 // closures have not bent. Then all loop closures, from that estimate: mu
 // starts where residuals beyond restart_chi2_factor c^2 weigh 0.
 void GncFromConfirmed(RejectionState& s, const std::vector<bool>& confirmed, size_t n_confirmed) {
   const double restart = 1 / (s.options.restart_chi2_factor - 1);
-  s.out.solve = SolveWeighted(s, confirmed, 0);
+  // From a fresh start on the trusted loop closures alone, capped: the few
+  // wrong ones left among them (aliased groups the pairwise tests could not
+  // tell: 11 of 534 on city10000) make least squares slow (chi2 140,000
+  // after 100 iterations), and GNC on them, with the threshold scaled by the
+  // variance factor the short cycles showed, cuts them out instead.
+  s.out.solve = SolveWeighted(s, confirmed, s.options.trusted_iterations, s.options.fresh_init);
   s.r2 = Residuals(s);
-  if (s.options.scale_by_variance) s.gnc_c2 = s.c2 * ConsistentVarianceFactor(s, n_confirmed);
+  if (s.options.scale_by_variance) s.gnc_c2 = s.c2 * s.cycle_variance;
   if (s.options.verbose)
     std::fprintf(stderr,
                  "least squares on the %zu confirmed: chi2 %.6g, %d iterations, %.2f s; GNC's "
@@ -242,6 +252,14 @@ void GncFromConfirmed(RejectionState& s, const std::vector<bool>& confirmed, siz
                  n_confirmed, s.out.solve.final_chi2, s.out.solve.iterations, s.out.solve.time_s,
                  s.gnc_c2);
   Gnc(s, confirmed, restart, "confirmed");
+  // The rest by the noise of that solution.
+  size_t n_in = 0;
+  for (size_t i = 0; i < s.closures.size(); ++i) n_in += confirmed[i] && s.w[i] >= 0.5;
+  if (s.options.scale_by_variance) {
+    s.gnc_c2 = s.c2 * ConsistentVarianceFactor(s, n_in);
+    if (s.options.verbose)
+      std::fprintf(stderr, "GNC's threshold from the %zu kept: %.4g\n", n_in, s.gnc_c2);
+  }
   // Again while the set of loop closures that weigh in changes: as the
   // estimate improves, good loop closures that did not fit come within
   // reach (a region that only they constrain can relax towards them).

@@ -40,14 +40,18 @@ struct OutlierRejectionOptions {
   int inner_iterations = 0;
   // The largest set of pairwise consistent loop closures
   // (MaximumConsistentSet, pairwise_consistency.h: pairs whose ends lie
-  // within this many ids tested, and consistency_partners random others per
-  // loop closure) goes through GNC first, alone; 0: no such stage.
+  // within this many ids tested, some within ten times as many, and
+  // consistency_partners random others per loop closure), less those no
+  // neighbour agrees with, goes through GNC first, alone; 0: no such stage.
   int consistency_window = 20;
-  int consistency_partners = 40;
+  int consistency_partners = 20;
   // Tighten the thresholds of the consistency tests and of GNC by the
   // variance factor the data show (chi2 per degree of freedom, at most 1):
   // for information far looser than the noise.
   bool scale_by_variance = true;
+  // Iterations of the first least squares on those trusted loop closures
+  // (from fresh_init), before GNC on them.
+  int trusted_iterations = 20;
   // After that stage, GNC over all loop closures starts where a residual
   // beyond this many times the threshold weighs 0 (mu = 1 / (factor - 1)).
   double restart_chi2_factor = 10;

@@ -189,13 +189,17 @@ int64_t Span(const CycleTester& t, size_t i, size_t j) {
   return std::min(std::abs(ai - aj) + std::abs(bi - bj), std::abs(ai - bj) + std::abs(bi - aj));
 }
 
-// Every pair with both ends within `window` ids, found through buckets of
-// window x window ids, and `partners` random others per loop closure.
+// Every pair with both ends within `window` ids; of the pairs with both ends
+// within `reach` ids, `medium` at most (evenly through them); and `partners`
+// random others per loop closure. Cycles of a few hundred poses are where an
+// aliased group meets the good loop closures of the places it claims to
+// join, with odometry still certain enough to tell; random partners are
+// mostly thousands of poses away. Found through buckets of reach x reach ids.
 std::vector<TestedPair> SparsePairs(const CycleTester& t, const ConsistentSetOptions& o) {
   const size_t n = t.size();
   std::vector<TestedPair> pairs;
-  const int64_t w = std::max(o.window, 1);
-  auto key = [w](int64_t a, int64_t b) { return std::make_pair(a / w, b / w); };
+  const int64_t w = std::max(o.window, 1), r = std::max<int64_t>(o.reach, w);
+  auto key = [r](int64_t a, int64_t b) { return std::make_pair(a / r, b / r); };
   std::map<std::pair<int64_t, int64_t>, std::vector<uint32_t>> buckets;
   for (size_t i = 0; i < n; ++i) {
     const auto [a, b] = t.Ends(i);
@@ -206,19 +210,30 @@ std::vector<TestedPair> SparsePairs(const CycleTester& t, const ConsistentSetOpt
                      static_cast<float>(t.PairChi2(i, j)), Span(t, i, j) <= 2 * w});
   };
   std::vector<uint32_t> seen(n, UINT32_MAX);  // the i that last tested j
+  std::vector<uint32_t> medium;
   for (size_t i = 0; i < n; ++i) {
     const auto [a, b] = t.Ends(i);
+    medium.clear();
     for (int64_t da = -1; da <= 1; ++da)
       for (int64_t db = -1; db <= 1; ++db) {
-        const auto it = buckets.find({a / w + da, b / w + db});
+        const auto it = buckets.find({a / r + da, b / r + db});
         if (it == buckets.end()) continue;
         for (uint32_t j : it->second) {
           const auto [aj, bj] = t.Ends(j);
-          if (j <= i || std::abs(aj - a) > w || std::abs(bj - b) > w) continue;
+          if (j <= i || std::abs(aj - a) > r || std::abs(bj - b) > r) continue;
+          if (std::abs(aj - a) > w || std::abs(bj - b) > w) {
+            medium.push_back(j);
+            continue;
+          }
           seen[j] = static_cast<uint32_t>(i);
           test(i, j);
         }
       }
+    const size_t stride = std::max<size_t>(1, medium.size() / std::max(o.medium, 1));
+    for (size_t k = 0; k < medium.size() && o.medium > 0; k += stride) {
+      seen[medium[k]] = static_cast<uint32_t>(i);
+      test(i, medium[k]);
+    }
     std::mt19937_64 rng(o.seed * 1000003 + i);
     std::uniform_int_distribution<size_t> pick(0, n - 1);
     for (int k = 0; k < o.partners && n > 1; ++k) {

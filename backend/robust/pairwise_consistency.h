@@ -50,10 +50,13 @@ struct ConsistentSetOptions {
   size_t exact_limit = 60;
   // Beyond that, each loop closure is tested against the loop closures whose
   // ends both lie within `window` ids of its own (the cycle is short there
-  // and the test sharpest) and against `partners` others at random; a set
-  // without conflicts among the tested pairs is grown greedily.
+  // and the test sharpest), against `medium` at most of those within `reach`
+  // ids, and against `partners` others at random; a set without conflicts
+  // among the tested pairs is grown greedily.
   int window = 20;
-  int partners = 40;
+  int reach = 200;
+  int medium = 60;
+  int partners = 20;
   uint64_t seed = 1;
   // Scale the threshold by the variance factor the short cycles show (the
   // median of their chi2 over chi2's median, at most 1): information far

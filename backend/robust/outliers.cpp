@@ -69,7 +69,7 @@ struct RejectionState {
   const OutlierRejectionOptions& options;
   OutlierRejectionResult out;
   double c2 = 0;                 // the truncation threshold
-  // GNC's: c2 times the consistent set's variance factor (below kLooseInformation, else 1).
+  // GNC's: c2 times the consistent set's variance factor (at most 1).
   double gnc_c2 = 0;
   double cycle_variance = 1;  // the pairwise stage's variance factor
   std::vector<bool> trusted;  // per edge of `graph`: consistent, and a neighbour agrees
@@ -216,10 +216,9 @@ std::vector<bool> ConfirmedByConsistency(RejectionState& s, size_t* n_confirmed)
 }
 
 // The noise the consistent set's least-squares solution shows, chi2 per
-// degree of freedom, when below kLooseInformation (else 1). Information
-// matrices far looser than the noise (intel's, city10000's) let a wrong loop
-// closure bend the estimate into place within c^2; GNC's threshold is
-// tightened by as much.
+// degree of freedom, never above 1. Information matrices far looser than the
+// noise (intel's, city10000's) let a wrong loop closure bend the estimate
+// into place within c^2; GNC's threshold is tightened by as much.
 double ConsistentVarianceFactor(const RejectionState& s, size_t n_confirmed) {
   const std::vector<bool> held = HeldConstant(s.graph);
   size_t edges = n_confirmed;
@@ -228,8 +227,7 @@ double ConsistentVarianceFactor(const RejectionState& s, size_t n_confirmed) {
   const double dof =
       d * (static_cast<double>(edges) -
            static_cast<double>(held.size() - std::count(held.begin(), held.end(), true)));
-  const double factor = dof > 0 ? s.out.solve.final_chi2 / dof : 1.0;
-  return factor < kLooseInformation ? std::max(factor, 1e-6) : 1.0;
+  return dof > 0 ? std::clamp(s.out.solve.final_chi2 / dof, 1e-6, 1.0) : 1.0;
 }
 
 // The consistent loop closures first, alone: least squares from

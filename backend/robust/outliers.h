@@ -46,8 +46,7 @@ struct OutlierRejectionOptions {
   int consistency_window = 20;
   int consistency_partners = 20;
   // Tighten the thresholds of the consistency tests and of GNC by the
-  // variance factor the data show (chi2 per degree of freedom) when it is
-  // below kLooseInformation (pairwise_consistency.h):
+  // variance factor the data show (chi2 per degree of freedom, at most 1):
   // for information far looser than the noise.
   bool scale_by_variance = true;
   // Iterations of the first least squares on those trusted loop closures

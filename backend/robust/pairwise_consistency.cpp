@@ -257,7 +257,7 @@ std::vector<TestedPair> AllPairs(const CycleTester& t, int window) {
 
 // The noise the short cycles show against their covariances (the variance
 // factor), from the median of their chi2 over chi2's median: robust to the
-// wrong pairs among them, and 1 unless below kLooseInformation. Information matrices far looser
+// wrong pairs among them, and never above 1. Information matrices far looser
 // than the noise (intel's) would otherwise let a wrong loop closure pass a
 // cycle of loose odometry.
 double CycleVarianceFactor(const std::vector<TestedPair>& pairs, int dof) {
@@ -268,8 +268,7 @@ double CycleVarianceFactor(const std::vector<TestedPair>& pairs, int dof) {
   std::nth_element(near.begin(), near.begin() + near.size() / 2, near.end());
   // The medians of chi2 with 3 and 6 degrees of freedom.
   const double median = dof == 3 ? 2.365974 : 5.348121;
-  const double factor = near[near.size() / 2] / median;
-  return factor < kLooseInformation ? std::max(factor, 1e-3) : 1.0;
+  return std::clamp(near[near.size() / 2] / median, 1e-3, 1.0);
 }
 
 // NaN (no odometry between the ends, a degenerate covariance) is no

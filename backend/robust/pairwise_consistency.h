@@ -43,12 +43,6 @@ class CycleTester {
   Impl* impl_;
 };
 
-// Thresholds are tightened by a variance factor only below this: information
-// at least ten times looser than the noise the data show (intel 0.004-0.02,
-// city10000 0.014-0.019). Manhattan's 0.4-0.6 is left alone: tightened, its
-// loosely held regions lost good loop closures (0.085 m RMS instead of 0.001).
-constexpr double kLooseInformation = 0.1;
-
 struct ConsistentSetOptions {
   double threshold_chi2 = 0;  // a pair is inconsistent beyond it (required, > 0)
   // Up to this many loop closures, every pair is tested and the largest set
@@ -65,7 +59,7 @@ struct ConsistentSetOptions {
   int partners = 20;
   uint64_t seed = 1;
   // Scale the threshold by the variance factor the short cycles show (the
-  // median of their chi2 over chi2's median, when below kLooseInformation): information far
+  // median of their chi2 over chi2's median, at most 1): information far
   // looser than the noise tightens the test, never loosens it.
   bool scale_by_variance = true;
 };

@@ -32,7 +32,7 @@ std::string Number(double v) {
 // What the command line says, before it is turned into the solvers' options.
 struct OptimizeArgs {
   std::string in, out, solver = "ceres", robust = "none", method = "lm", sparse = "auto";
-  std::string init, report, plot, linear_solver = "auto", covariance_ids;
+  std::string init, report, plot, linear_solver = "auto", covariance_ids, rejected;
   bool quiet = false, strict = false;
   SolverOptions common;
   // Ceres's own settings and Gauss-Newton's, at their defaults.
@@ -41,7 +41,8 @@ struct OptimizeArgs {
   bool postordering = false, no_jacobi = false;
   double gn_damping = GaussNewtonOptions().damping;
   bool gn_no_chord = false;
-  bool reject_outliers = false, no_readmit = false, no_verify = false;
+  bool reject_outliers = false, no_readmit = false, no_verify = false, no_final = false;
+  bool no_scaling = false;
   OutlierRejectionOptions rejection;
 };
 
@@ -89,8 +90,9 @@ void DeclareSolverOptions(ArgParser& args, OptimizeArgs& a) {
 void DeclareOutlierOptions(ArgParser& args, OptimizeArgs& a) {
   OutlierRejectionOptions& r = a.rejection;
   args.Flag("reject-outliers", &a.reject_outliers,
-            "decide which loop closures are wrong (graduated non-convexity, truncated least "
-            "squares) and drop them; the report lists them as rejected_loop_closures");
+            "decide which loop closures are wrong (pairwise consistency, then graduated "
+            "non-convexity on truncated least squares) and drop them: -o holds the kept "
+            "graph, the report lists them as rejected_loop_closures");
   args.Option("outlier-threshold", &r.threshold_chi2, "CHI2",
               "with --reject-outliers: the chi2 above which a loop closure is wrong (0: the "
               "--outlier-confidence quantile for 3 or 6 dof)");
@@ -100,14 +102,28 @@ void DeclareOutlierOptions(ArgParser& args, OptimizeArgs& a) {
               "with --reject-outliers: iterations of each weighted solve inside GNC (0: "
               "--max-iterations); the solves without the rejected ones run in full");
   args.Option("outlier-window", &r.consistency_window, "N",
-              "with --reject-outliers: loop closures whose ends lie within N ids of another's "
-              "that agrees with them go through GNC first, alone (0: no such stage)");
+              "with --reject-outliers: the largest pairwise consistent set of loop closures "
+              "(every pair whose ends lie within N ids tested, and random others), less "
+              "those no neighbour agrees with, goes through GNC first, alone (0: no such "
+              "stage)");
   args.Option("outlier-restart", &r.restart_chi2_factor, "F",
               "with --reject-outliers: after that stage, GNC over all loop closures starts "
               "with those beyond F times the threshold at weight 0");
   args.Flag("no-outlier-readmission", &a.no_readmit,
             "with --reject-outliers: do not take back rejected loop closures whose "
             "innovation statistic at the final estimate is within the threshold");
+  args.Option("rejected", &a.rejected, "FILE.g2o",
+              "with --reject-outliers: write the rejected loop closures there (with their "
+              "poses at the final estimate); -o holds only the kept ones");
+  args.Option("outlier-partners", &r.consistency_partners, "N",
+              "with --reject-outliers: random loop closures each one's consistency is tested "
+              "against, besides those within --outlier-window ids");
+  args.Flag("no-outlier-variance-scaling", &a.no_scaling,
+            "with --reject-outliers: keep the consistency tests' and GNC's thresholds as "
+            "they are, whatever noise the data show");
+  args.Flag("no-outlier-final-solve", &a.no_final,
+            "with --reject-outliers: skip the kept graph's last solves in full (from the "
+            "estimate reached and from a fresh start)");
   args.Flag("no-outlier-verification", &a.no_verify,
             "with --reject-outliers: skip the check after GNC (kept loop closures whose "
             "deletion would lower chi2 by more than the threshold are rejected too)");
@@ -187,7 +203,17 @@ bool MakePlan(OptimizeArgs& a, OptimizePlan* p) {
     PrintError(std::string("--covariance: ") + e.what());
     return false;
   }
+  if (!a.rejected.empty() && !a.reject_outliers) {
+    PrintError("--rejected needs --reject-outliers");
+    return false;
+  }
+  // The kept graph's last solve restarts from --init when it is given; else
+  // from the better of the file's vertices and the chordal relaxation, which
+  // no wrong loop closure bends any more.
+  a.rejection.fresh_init = !a.init.empty() ? p->init : InitMethod::kAuto;
   a.rejection.verify = !a.no_verify;
+  a.rejection.final_solve = !a.no_final;
+  a.rejection.scale_by_variance = !a.no_scaling;
   a.rejection.readmit = !a.no_readmit;
   // The inner solves are many: one progress line per GNC round instead.
   a.rejection.verbose = !a.quiet;
@@ -205,10 +231,13 @@ SolveResult Solve(PoseGraph& graph, const OptimizePlan& p) {
                                               : SolveWithCeres(graph, p.ceres);
 }
 
-// GNC over the loop closures with the chosen solver inside; *rejected gets
-// the pairs found wrong.
+// The rejection with the chosen solver inside; *rejected gets the pairs
+// found wrong and `graph` becomes the kept graph (its estimate the last
+// solve's). The result is the whole run's: the input's chi2, the kept
+// graph's, the iterations of every inner solve and the run's wall time.
 SolveResult SolveRejecting(PoseGraph& graph, const OptimizeArgs& a, const OptimizePlan& p,
-                           std::vector<VertexPair>* rejected) {
+                           std::vector<VertexPair>* rejected, PoseGraph* rejected_graph) {
+  const auto start = std::chrono::steady_clock::now();
   OptimizePlan inner = p;
   inner.ceres.verbose = inner.gn.verbose = false;
   const OutlierRejectionResult r = SolveRejectingOutliers(
@@ -220,13 +249,26 @@ SolveResult SolveRejecting(PoseGraph& graph, const OptimizeArgs& a, const Optimi
       },
       a.rejection);
   *rejected = r.rejected;
+  *rejected_graph = PoseGraph(graph.dimension());
+  for (size_t k : r.rejected_edges) {
+    const Edge& e = graph.edges()[k];
+    for (int64_t id : {e.from, e.to})
+      if (!rejected_graph->HasVertex(id))
+        rejected_graph->AddVertex(id, graph.vertex(id).x, graph.vertex(id).fixed);
+    rejected_graph->AddEdge(e);
+  }
+  const size_t closures = graph.CountEdges(EdgeKind::kLoopClosure);
+  graph = WithoutEdges(graph, r.rejected_edges);
+  SolveResult result = r.solve;
+  result.iterations = r.iterations;
+  result.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (!a.quiet)
     std::fprintf(stderr,
                  "%s: rejected %zu of %zu loop closures (%d of them by verification; chi2 "
-                 "threshold %.4g, %d solves)\n",
-                 a.in.c_str(), rejected->size(), graph.CountEdges(EdgeKind::kLoopClosure),
-                 r.verified, r.threshold_chi2, r.rounds);
-  return r.solve;
+                 "threshold %.4g; %d solves, %d iterations, %.3f s in the solves)\n",
+                 a.in.c_str(), rejected->size(), closures, r.verified, r.threshold_chi2,
+                 r.rounds, r.iterations, r.solve_time_s);
+  return result;
 }
 
 // From the solver that found the optimum (Ceres's ceres::Covariance, or the
@@ -259,7 +301,7 @@ struct Timings {
 // closures first and the covariances last.
 std::string ReportJson(const OptimizeArgs& a, const OptimizePlan& p, const PoseGraph& graph,
                  const SolveResult& result, const Timings& t,
-                 const std::vector<VertexPair>& rejected,
+                 const std::vector<VertexPair>& rejected, size_t input_closures,
                  const std::vector<Eigen::MatrixXd>& covariances) {
   const bool gn = p.solver == SolverKind::kGaussNewton;
   std::vector<std::pair<std::string, std::string>> context = {
@@ -294,6 +336,8 @@ std::string ReportJson(const OptimizeArgs& a, const OptimizePlan& p, const PoseG
     j["rejected_loop_closures"] = Json::array();
     for (const VertexPair& pair : rejected)
       j["rejected_loop_closures"].push_back({pair.first, pair.second});
+    // The sizes below are the kept graph's, as written to -o.
+    j["input_loop_closures"] = input_closures;
   }
   for (auto& [key, value] : report.items()) j[key] = std::move(value);
   PutRepairs(j, graph);  // the counts of --repair-information, 0 without
@@ -313,6 +357,7 @@ void DeclareFiles(const OptimizeArgs& a, CommandOutputs& outputs) {
   outputs.GraphOutput(a.out);
   outputs.Output(a.report);
   outputs.Output(a.plot, ".svg");
+  outputs.GraphOutput(a.rejected);
   outputs.Check();
 }
 
@@ -356,8 +401,11 @@ int RunOptimize(int argc, char** argv) {
     std::printf("%s\n", DescribeAutoChoice(t.init).c_str());
 
   std::vector<VertexPair> rejected;
-  const SolveResult result =
-      a.reject_outliers ? SolveRejecting(graph, a, p, &rejected) : Solve(graph, p);
+  PoseGraph rejected_graph(graph.dimension());
+  const size_t input_closures = graph.CountEdges(EdgeKind::kLoopClosure);
+  const SolveResult result = a.reject_outliers
+                                 ? SolveRejecting(graph, a, p, &rejected, &rejected_graph)
+                                 : Solve(graph, p);
   std::vector<Eigen::MatrixXd> covariances;
   // Not from a failed solve: the estimate is no optimum.
   if (!p.covariance_of.empty() && result.usable) {
@@ -371,8 +419,10 @@ int RunOptimize(int argc, char** argv) {
   // A failed solve leaves -o as it was (the report still says why); the
   // rest go in place together or not at all.
   if (result.usable) outputs.WriteGraph(a.out, graph);
+  if (result.usable && !a.rejected.empty()) outputs.WriteGraph(a.rejected, rejected_graph);
   if (!a.report.empty()) {
-    const std::string json = ReportJson(a, p, graph, result, t, rejected, covariances);
+    const std::string json =
+        ReportJson(a, p, graph, result, t, rejected, input_closures, covariances);
     outputs.Write(a.report, [&](std::ostream& os) { os << json; });
   }
   if (!a.plot.empty()) {

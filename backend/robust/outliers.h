@@ -8,6 +8,7 @@
 #include <functional>
 #include <vector>
 
+#include "cairn/graph/initialization.h"
 #include "cairn/graph/pose_graph.h"
 #include "cairn/robust/vertex_pair.h"
 #include "cairn/solvers/solve_result.h"
@@ -37,9 +38,20 @@ struct OutlierRejectionOptions {
   // limit); the weights move on before the estimate has settled. The last
   // solves, without the rejected loop closures, always run to convergence.
   int inner_iterations = 0;
-  // Loop closures that a neighbour within this many ids agrees with
-  // (LocalLoopClosureSupport, local_consistency.h) go through GNC first, alone; 0: no such stage.
-  int consistency_window = 5;
+  // The largest set of pairwise consistent loop closures
+  // (MaximumConsistentSet, pairwise_consistency.h: pairs whose ends lie
+  // within this many ids tested, some within ten times as many, and
+  // consistency_partners random others per loop closure), less those no
+  // neighbour agrees with, goes through GNC first, alone; 0: no such stage.
+  int consistency_window = 20;
+  int consistency_partners = 20;
+  // Tighten the thresholds of the consistency tests and of GNC by the
+  // variance factor the data show (chi2 per degree of freedom, at most 1):
+  // for information far looser than the noise.
+  bool scale_by_variance = true;
+  // Iterations of the first least squares on those trusted loop closures
+  // (from fresh_init), before GNC on them.
+  int trusted_iterations = 20;
   // After that stage, GNC over all loop closures starts where a residual
   // beyond this many times the threshold weighs 0 (mu = 1 / (factor - 1)).
   double restart_chi2_factor = 10;
@@ -55,6 +67,10 @@ struct OutlierRejectionOptions {
   // a-posteriori variance factor (at most 1), then verify again.
   bool readmit = true;
   double readmit_reach = 100;
+  // At the end: the kept graph solved in full from the estimate reached and
+  // from `fresh_init` (kFile: the starting estimate), the lower chi2 kept.
+  bool final_solve = true;
+  InitMethod fresh_init = InitMethod::kAuto;
   bool verbose = false;
 
   // False, with *error saying which option and why, for values out of
@@ -63,12 +79,21 @@ struct OutlierRejectionOptions {
 };
 
 struct OutlierRejectionResult {
-  SolveResult solve;               // the last solve, on the inliers alone
+  // The last solve, on the kept graph, but with the input's chi2 (every
+  // edge, at the start) as initial_chi2 and the kept graph's as final_chi2.
+  SolveResult solve;
   std::vector<VertexPair> rejected;  // loop closures found wrong, in file order
+  std::vector<size_t> rejected_edges;  // the same, as indices into graph.edges()
   int rounds = 0;                  // solves in all (GNC's, the last ones)
+  int iterations = 0;              // summed over all the solves
+  double solve_time_s = 0;         // the solves' own times, summed
   int verified = 0;                // loop closures rejected by the verification
   double threshold_chi2 = 0;
 };
+
+// `graph` without the listed edges (indices into graph.edges(), e.g.
+// OutlierRejectionResult::rejected_edges), everything else as it is.
+PoseGraph WithoutEdges(const PoseGraph& graph, const std::vector<size_t>& edges);
 
 // A solve of a graph in place (weights are folded into the information),
 // of at most `max_iterations` iterations (0: the solver's own limit).
@@ -86,7 +111,9 @@ using GraphSolver = std::function<SolveResult(PoseGraph& graph, int max_iteratio
 // it. While some kept loop closure's exceeds the threshold, the largest one
 // is rejected too and the rest re-solved: under the truncated cost, a loop
 // closure whose deletion saves more than c^2 costs more than leaving it out.
-// The estimate of the last solve is left in `graph`.
+// Every rejected loop closure that fits the kept graph's solution comes
+// back, and the kept graph is solved to its optimum (final_solve). The
+// estimate of the last solve is left in `graph`; its edges are not changed.
 OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolver& solve,
                                               const OutlierRejectionOptions& options = {});
 

@@ -1,0 +1,319 @@
+// Aliased wrong loop closures (`cairn corrupt --grouped`), the pairwise
+// consistency of loop closures (PCM) and outlier rejection against groups
+// of wrong loop closures that agree with each other; on simulated graphs,
+// several seeds, both solvers.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "cairn/graph/chi2.h"
+#include "cairn/graph/geometry.h"
+#include "cairn/graph/graph_io.h"
+#include "cairn/graph/simulate.h"
+#include "cairn/robust/corrupt.h"
+#include "cairn/robust/outliers.h"
+#include "cairn/robust/pairwise_consistency.h"
+#include "cairn/solvers/ceres_solver.h"
+#include "cairn/solvers/graph_gauss_newton.h"
+#include "test_util.h"
+
+namespace cairn {
+namespace {
+
+Simulation Simulated(int dim, int poses, uint64_t seed) {
+  SimulationOptions so;
+  so.dimension = dim;
+  so.poses = poses;
+  so.seed = seed;
+  return Simulate(so);
+}
+
+double Rms(const PoseGraph& a, const PoseGraph& b) {
+  double sum = 0;
+  for (size_t i = 0; i < a.vertices().size(); ++i)
+    for (int k = 0; k < a.dimension(); ++k)
+      sum += std::pow(a.vertices()[i].x[k] - b.vertices()[i].x[k], 2);
+  return std::sqrt(sum / a.vertices().size());
+}
+
+// The cycle closure k of a group makes with closure 0 and the true
+// odometry: identity when both measure one rigid offset.
+template <typename Pose>
+double GroupCycleError(const PoseGraph& truth, const Edge& first, const Edge& e) {
+  auto x = [&](int64_t id) { return ToPose<Pose>(truth.vertex(id).x); };
+  const Pose c = ToPose<Pose>(first.z).Inverse() * x(first.from).Inverse() * x(e.from) *
+                 ToPose<Pose>(e.z) * x(e.to).Inverse() * x(first.to);
+  return LogMap(c).norm();
+}
+
+TEST(Corrupt, AliasedGroupsAgreeWithEachOtherAndTheOdometry) {
+  for (int dim : {2, 3})
+    for (uint64_t seed : {1, 2, 3}) {
+      const Simulation sim = Simulated(dim, 400, seed);
+      PoseGraph g = sim.noisy;
+      const size_t before = g.edges().size();
+      std::set<VertexPair> joined;
+      for (const Edge& e : g.edges()) joined.insert(std::minmax(e.from, e.to));
+      const auto added = AddAliasedLoopClosures(g, 23, 5, seed, &sim.truth);
+      ASSERT_EQ(added.size(), 23u);
+      ASSERT_EQ(g.edges().size(), before + 23);
+      // Groups of 5, the last of 3: ends step together inside a group.
+      for (size_t k = 0; k < added.size(); ++k) {
+        const Edge& e = g.edges()[before + k];
+        EXPECT_EQ(e.kind, EdgeKind::kLoopClosure);
+        EXPECT_EQ(joined.count(added[k]), 0u);
+        EXPECT_GE(e.to - e.from, 2);
+        const Edge& first = g.edges()[before + k - k % 5];
+        EXPECT_EQ(e.from - first.from, static_cast<int64_t>(k % 5));
+        EXPECT_EQ(e.to - first.to, static_cast<int64_t>(k % 5));
+        const double err = dim == 2 ? GroupCycleError<SE2>(sim.truth, first, e)
+                                    : GroupCycleError<SE3>(sim.truth, first, e);
+        EXPECT_LT(err, 1e-9) << "dim " << dim << " seed " << seed << " closure " << k;
+      }
+      // The seed decides; a bad size is refused.
+      PoseGraph again = sim.noisy;
+      EXPECT_EQ(AddAliasedLoopClosures(again, 23, 5, seed, &sim.truth), added);
+      EXPECT_THROW(AddAliasedLoopClosures(again, 5, 0, seed), std::invalid_argument);
+    }
+}
+
+TEST(PairwiseConsistency, GoodPairsNearAndFarAreChiSquared) {
+  // With the simulator's information matching its noise, the cycle of two
+  // good loop closures has chi2 with 3 or 6 degrees of freedom: its mean is
+  // the dof for near pairs (short cycles), and for far ones (long odometry)
+  // in 3D. In 2D the far cycles' mean is about half the dof (the propagated
+  // covariance is conservative there, docs/robustness.md): never above it.
+  for (int dim : {2, 3}) {
+    const PoseGraph g = Simulated(dim, dim == 2 ? 1500 : 1000, 7).noisy;
+    const CycleTester t(g);
+    ASSERT_GT(t.size(), 100u);
+    double near_sum = 0, far_sum = 0;
+    size_t near_n = 0, far_n = 0;
+    for (size_t i = 0; i < t.size(); ++i)
+      for (size_t j = i + 1; j < t.size(); j += 7) {
+        const double c = t.PairChi2(i, j);
+        ASSERT_TRUE(std::isfinite(c));
+        const auto [ai, bi] = t.Ends(i);
+        const auto [aj, bj] = t.Ends(j);
+        const int64_t span = std::min(std::abs(ai - aj) + std::abs(bi - bj),
+                                      std::abs(ai - bj) + std::abs(bi - aj));
+        (span <= 20 ? near_sum : far_sum) += c;
+        (span <= 20 ? near_n : far_n) += 1;
+      }
+    ASSERT_GT(near_n, 20u);
+    ASSERT_GT(far_n, 1000u);
+    const int dof = g.TangentSize();
+    EXPECT_NEAR(near_sum / near_n, dof, 0.35 * dof) << "dim " << dim;
+    if (dim == 3) EXPECT_NEAR(far_sum / far_n, dof, 0.2 * dof) << "dim " << dim;
+    EXPECT_GT(far_sum / far_n, 0.35 * dof) << "dim " << dim;
+    EXPECT_LT(far_sum / far_n, 1.2 * dof) << "dim " << dim;
+  }
+}
+
+// Wrong and good loop closures among those in `in`, in edge order.
+std::pair<size_t, size_t> Counts(const PoseGraph& g, const std::vector<bool>& in,
+                                 const std::set<VertexPair>& wrong) {
+  size_t i = 0, w = 0, good = 0;
+  for (const Edge& e : g.edges()) {
+    if (e.kind != EdgeKind::kLoopClosure) continue;
+    if (in[i++]) (wrong.count(std::minmax(e.from, e.to)) ? w : good) += 1;
+  }
+  return {w, good};
+}
+
+TEST(PairwiseConsistency, TheLargestConsistentSetLeavesAliasedGroupsOut) {
+  for (int dim : {2, 3})
+    for (uint64_t seed : {4, 5, 6}) {
+      const Simulation sim = Simulated(dim, dim == 2 ? 800 : 600, seed);
+      PoseGraph g = sim.noisy;
+      const size_t good = g.CountEdges(EdgeKind::kLoopClosure);
+      const int n_wrong = static_cast<int>(good / 5);
+      const auto added = AddAliasedLoopClosures(g, n_wrong, 10, seed, &sim.truth);
+      const std::set<VertexPair> wrong(added.begin(), added.end());
+      ConsistentSetOptions o;
+      o.threshold_chi2 = LoopClosureThreshold(0.999, g.TangentSize(), good + added.size());
+      const ConsistentSet set = MaximumConsistentSet(g, o);
+      EXPECT_FALSE(set.exact);
+      const auto [w, kept] = Counts(g, set.in, wrong);
+      EXPECT_LE(w, 0.05 * added.size()) << "dim " << dim << " seed " << seed;
+      EXPECT_GE(kept, 0.9 * good) << "dim " << dim << " seed " << seed;
+    }
+}
+
+TEST(PairwiseConsistency, ExactForFewLoopClosures) {
+  // Few loop closures: every pair tested, the set found is consistent and
+  // no loop closure outside it agrees with all of it (maximal), and it is at
+  // least as large as the greedy one.
+  for (uint64_t seed : {1, 2, 3}) {
+    const Simulation sim = Simulated(2, 110, seed);
+    PoseGraph g = sim.noisy;
+    const size_t good = g.CountEdges(EdgeKind::kLoopClosure);
+    ASSERT_LT(good + 10, 60u);
+    AddAliasedLoopClosures(g, 10, 5, seed, &sim.truth);
+    ConsistentSetOptions o;
+    o.threshold_chi2 = LoopClosureThreshold(0.999, 3, good + 10);
+    const ConsistentSet exact = MaximumConsistentSet(g, o);
+    ASSERT_TRUE(exact.exact);
+    const CycleTester t(g);
+    EXPECT_EQ(exact.tested_pairs, t.size() * (t.size() - 1) / 2);
+    auto agrees = [&](size_t i, size_t j) { return !(t.PairChi2(i, j) > o.threshold_chi2); };
+    for (size_t i = 0; i < t.size(); ++i) {
+      bool with_all = true;
+      for (size_t j = 0; j < t.size(); ++j)
+        if (j != i && exact.in[j] && !agrees(i, j)) with_all = false;
+      if (exact.in[i]) EXPECT_TRUE(with_all) << i;
+      else EXPECT_FALSE(with_all) << i;
+    }
+    o.exact_limit = 0;
+    const ConsistentSet greedy = MaximumConsistentSet(g, o);
+    EXPECT_FALSE(greedy.exact);
+    EXPECT_GE(std::count(exact.in.begin(), exact.in.end(), true),
+              std::count(greedy.in.begin(), greedy.in.end(), true));
+  }
+}
+
+GraphSolver Solver(bool gn) {
+  return [gn](PoseGraph& x, int iterations) {
+    GaussNewtonOptions go;
+    CeresOptions co;
+    if (iterations > 0) go.max_iterations = co.max_iterations = iterations;
+    return gn ? SolveGaussNewton(x, go) : SolveWithCeres(x, co);
+  };
+}
+
+TEST(Gnc, RejectsAliasedGroupsWithEitherSolver) {
+  for (int dim : {2, 3})
+    for (uint64_t seed : {21, 22}) {
+      const Simulation sim = Simulated(dim, dim == 2 ? 600 : 400, seed);
+      PoseGraph reference = sim.noisy;
+      SolveWithCeres(reference, CeresOptions());
+      PoseGraph corrupted = sim.noisy;
+      const size_t good = corrupted.CountEdges(EdgeKind::kLoopClosure);
+      const int size = seed % 2 ? 5 : 10;
+      const auto added = AddAliasedLoopClosures(corrupted, static_cast<int>(good / 5), size,
+                                                seed, &sim.truth);
+      const std::set<VertexPair> wrong(added.begin(), added.end());
+      for (bool gn : {false, true}) {
+        PoseGraph g = corrupted;
+        const auto r = SolveRejectingOutliers(g, Solver(gn));
+        size_t caught = 0;
+        for (const auto& p : r.rejected) caught += wrong.count(p);
+        const std::string what = "dim " + std::to_string(dim) + " seed " +
+                                 std::to_string(seed) + (gn ? " gn" : " ceres");
+        EXPECT_GE(caught, 0.95 * wrong.size()) << what;
+        EXPECT_LE(r.rejected.size() - caught, 0.05 * good) << what;
+        EXPECT_LT(Rms(g, reference), 0.05) << what;
+        // The whole run's figures: the kept graph's chi2 at the end.
+        EXPECT_NEAR(r.solve.final_chi2, Chi2(WithoutEdges(g, r.rejected_edges)),
+                    1e-9 * r.solve.final_chi2);
+        EXPECT_GE(r.iterations, r.solve.iterations);
+      }
+    }
+}
+
+TEST(Gnc, NinetyPercentRandomWrongLoopClosures) {
+  // As many wrong loop closures as 0.9 times the good ones... and 9 times.
+  for (uint64_t seed : {31, 32}) {
+    const Simulation sim = Simulated(2, 500, seed);
+    PoseGraph reference = sim.noisy;
+    SolveWithCeres(reference, CeresOptions());
+    const size_t good = sim.noisy.CountEdges(EdgeKind::kLoopClosure);
+    for (double times : {0.9, 9.0}) {
+      PoseGraph corrupted = sim.noisy;
+      const auto added =
+          AddWrongLoopClosures(corrupted, static_cast<int>(times * good), seed);
+      const std::set<VertexPair> wrong(added.begin(), added.end());
+      for (bool gn : {false, true}) {
+        PoseGraph g = corrupted;
+        const auto r = SolveRejectingOutliers(g, Solver(gn));
+        size_t caught = 0;
+        for (const auto& p : r.rejected) caught += wrong.count(p);
+        const std::string what = "seed " + std::to_string(seed) + " x" +
+                                 std::to_string(times) + (gn ? " gn" : " ceres");
+        EXPECT_GE(caught, 0.95 * wrong.size()) << what;
+        EXPECT_LE(r.rejected.size() - caught, 0.05 * good) << what;
+        EXPECT_LT(Rms(g, reference), 0.05) << what;
+      }
+    }
+  }
+}
+
+std::set<VertexPair> PairsOf(const PoseGraph& g) {
+  std::set<VertexPair> out;
+  for (const Edge& e : g.edges())
+    if (e.kind == EdgeKind::kLoopClosure) out.emplace(e.from, e.to);
+  return out;
+}
+
+TEST(Cli, GroupedCorruptionThenTheKeptGraphWritten) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(testing::TempDir()) / "grouped";
+  fs::create_directories(dir);
+  const std::string tool = CAIRN_TOOL, d = dir.string();
+  int status = 0;
+  testing::RunCommand(tool + " simulate -o " + d + "/clean.g2o --truth " + d +
+                          "/truth.g2o --poses 400 --seed 3 2>&1",
+                      &status);
+  ASSERT_EQ(status, 0);
+  const std::string out = testing::RunCommand(
+      tool + " corrupt " + d + "/clean.g2o -o " + d + "/bad.g2o --outliers 12 --grouped 5 " +
+          "--truth " + d + "/truth.g2o --seed 2 2>&1",
+      &status);
+  ASSERT_EQ(status, 0) << out;
+  const PoseGraph clean = ReadGraph(d + "/clean.g2o"), bad = ReadGraph(d + "/bad.g2o");
+  EXPECT_EQ(bad.CountEdges(EdgeKind::kLoopClosure), clean.CountEdges(EdgeKind::kLoopClosure) + 12);
+  const std::string run = testing::RunCommand(
+      tool + " optimize " + d + "/bad.g2o -o " + d + "/out.g2o --reject-outliers --rejected " +
+          d + "/rejected.g2o --report " + d + "/r.json 2>&1",
+      &status);
+  ASSERT_EQ(status, 0) << run;
+  // -o holds exactly the kept loop closures, --rejected the others.
+  const PoseGraph kept = ReadGraph(d + "/out.g2o"), rejected = ReadGraph(d + "/rejected.g2o");
+  const std::set<VertexPair> all = PairsOf(bad), in = PairsOf(kept), out_pairs = PairsOf(rejected);
+  EXPECT_EQ(in.size() + out_pairs.size(), all.size());
+  for (const VertexPair& p : out_pairs) EXPECT_EQ(in.count(p), 0u);
+  for (const VertexPair& p : in) EXPECT_EQ(all.count(p), 1u);
+  EXPECT_EQ(kept.CountEdges(EdgeKind::kOdometry), bad.CountEdges(EdgeKind::kOdometry));
+  std::ifstream list(d + "/bad.g2o.outliers.txt");
+  std::string line;
+  size_t wrong = 0, caught = 0;
+  while (std::getline(list, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ss(line);
+    int64_t a, b;
+    ss >> a >> b;
+    ++wrong;
+    caught += out_pairs.count({a, b});
+  }
+  EXPECT_EQ(wrong, 12u);
+  EXPECT_EQ(caught, 12u);
+  // The report is the whole run's: the input's chi2 and the written graph's.
+  std::ifstream rf(d + "/r.json");
+  const std::string json((std::istreambuf_iterator<char>(rf)), std::istreambuf_iterator<char>());
+  auto number = [&](const std::string& key) {
+    const size_t at = json.find("\"" + key + "\": ");
+    return at == std::string::npos ? NAN : std::stod(json.substr(at + key.size() + 4));
+  };
+  EXPECT_NEAR(number("final_chi2"), Chi2(kept), 1e-6 * Chi2(kept));
+  EXPECT_NEAR(number("initial_chi2"), Chi2(bad), 1e-6 * Chi2(bad));
+  EXPECT_GT(number("iterations"), 5);
+  EXPECT_EQ(number("input_loop_closures"), static_cast<double>(all.size()));
+  // --rejected is checked with the other outputs, before any work.
+  testing::RunCommand(tool + " optimize " + d + "/bad.g2o -o " + d + "/o2.g2o --reject-outliers " +
+                          "--rejected " + d + "/nodir/r.g2o 2>&1",
+                      &status);
+  EXPECT_NE(status, 0);
+  EXPECT_FALSE(fs::exists(d + "/o2.g2o"));
+  testing::RunCommand(tool + " optimize " + d + "/bad.g2o -o " + d + "/o2.g2o --rejected " + d +
+                          "/r2.g2o 2>&1",
+                      &status);
+  EXPECT_EQ(status, 2);  // --rejected without --reject-outliers
+}
+
+}  // namespace
+}  // namespace cairn

@@ -203,9 +203,15 @@ UpdateResult IncrementalOptimizer::Update() {
     partial_ = std::make_unique<PartialUpdater>(&graph_, manifold_.get(), gn_loss_.get(),
                                                 options_.partial);
   UpdateResult result;
+  // Refused (a step that raised the cost, a factor no longer positive
+  // definite, a graph partial updates do not cover): once more from a fresh
+  // linearisation at the estimate before it, then the whole solve.
   if (!partial_->Update(&result)) {
-    Optimize(SolverKind::kGaussNewton);
-    result.exact = true;
+    partial_->Invalidate();
+    if (!partial_->Update(&result)) {
+      Optimize(SolverKind::kGaussNewton);
+      result.exact = true;
+    }
   }
   result.time_s = Seconds(start);
   return result;

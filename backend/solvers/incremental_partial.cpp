@@ -9,6 +9,7 @@
 #include <queue>
 #include <stdexcept>
 
+#include "cairn/graph/chi2.h"
 #include "cairn/graph/runtime.h"
 #include "cairn/linear/block_ordering.h"
 #include "cairn/linear/cholesky_update.h"
@@ -343,7 +344,7 @@ bool PartialUpdater::Rebuild(UpdateResult* out) {
   marked_.clear();
   for (int j = 0; j < used_ * d_; ++j) marked_.push_back(j);
   BackSubstitute(out);
-  WriteEstimates();
+  if (!WriteEstimates()) return false;
   nnz_at_build_ = factor_->NonZeros();
   out->factor_nonzeros = nnz_at_build_;
   updates_since_build_ = 0;
@@ -498,13 +499,49 @@ void PartialUpdater::BackSubstitute(UpdateResult* out) {
   out->solved_unknowns = solved;
 }
 
-void PartialUpdater::WriteEstimates() {
+double PartialUpdater::ChangedCost() {
+  const auto& edges = graph_->edges();
+  cost_stamp_.resize(edges.size(), 0);
+  ++cost_round_;
+  double sum = 0;
+  for (int b : changed_blocks_) {
+    const int v = vertex_at_[b];
+    if (v < 0) continue;
+    for (int e : edges_of_[v]) {
+      if (cost_stamp_[e] == cost_round_) continue;
+      cost_stamp_[e] = cost_round_;
+      sum += EdgeChi2(*graph_, edges[e]);
+    }
+  }
+  return sum;
+}
+
+// The new estimate is kept only when it does not raise the cost of the
+// edges it moves (the rest of the graph's cost is unchanged): far from the
+// kept linearisation, on long loops, the linear step can diverge, and the
+// caller then solves the graph whole from the estimate before it.
+bool PartialUpdater::WriteEstimates() {
   auto& vertices = graph_->vertices();
+  const double before = ChangedCost();
+  saved_.clear();
+  for (int b : changed_blocks_) {
+    const int v = vertex_at_[b];
+    if (v < 0) continue;
+    saved_.push_back(vertices[v].x);
+    manifold_->Plus(LinPoint(v), &delta_[b * d_], vertices[v].x.data());
+  }
+  const double after = ChangedCost();
+  if (!(after <= kAcceptedCostGrowth * before + 1e-12)) {
+    size_t k = 0;
+    for (int b : changed_blocks_)
+      if (vertex_at_[b] >= 0) vertices[vertex_at_[b]].x = saved_[k++];
+    valid_ = false;
+    return false;
+  }
   for (int b : changed_blocks_) {
     const int v = vertex_at_[b];
     if (v < 0) continue;
     const double* step = &delta_[b * d_];
-    manifold_->Plus(LinPoint(v), step, vertices[v].x.data());
     double largest = 0;
     for (int c = 0; c < d_; ++c) largest = std::max(largest, std::abs(step[c]));
     if (largest > relinearize_threshold_ && !waiting_[v]) {
@@ -512,6 +549,7 @@ void PartialUpdater::WriteEstimates() {
       relinearize_.push_back(v);
     }
   }
+  return true;
 }
 
 bool PartialUpdater::Update(UpdateResult* out) {
@@ -576,7 +614,7 @@ bool PartialUpdater::Modify(UpdateResult* out) {
       return false;
     }
   BackSubstitute(out);
-  WriteEstimates();
+  if (!WriteEstimates()) return false;
   return true;
 }
 

@@ -34,10 +34,8 @@ BlockPattern MakeBlockPattern(int n, const std::vector<int>& col_ptr, const std:
 
 namespace {
 
-// Flops of the block graph's Cholesky factor in the given order, from
-// CHOLMOD's symbolic analysis (infinite when it fails): the scalar factor's
-// flops are these times about the block size cubed, whatever the order.
-double BlockFactorFlops(cholmod_sparse* graph, std::vector<int>* order, cholmod_common* common) {
+// BlockFactorFlops on the block graph as CHOLMOD holds it.
+double GraphFactorFlops(cholmod_sparse* graph, std::vector<int>* order, cholmod_common* common) {
   const int saved_methods = common->nmethods, saved_ordering = common->method[0].ordering;
   const int saved_super = common->supernodal, saved_post = common->postorder;
   common->nmethods = 1;
@@ -66,6 +64,56 @@ cholmod_sparse* BlockGraph(const BlockPattern& pattern, cholmod_common* common) 
   return graph;
 }
 
+double BlockFactorFlops(const BlockPattern& pattern, std::vector<int>* order,
+                        cholmod_common* common) {
+  cholmod_sparse* graph = BlockGraph(pattern, common);
+  if (!graph) return std::numeric_limits<double>::infinity();
+  const double flops = GraphFactorFlops(graph, order, common);
+  cholmod_free_sparse(&graph, common);
+  return flops;
+}
+
+namespace {
+
+// The graph that the blocks with side[b] == s induce, numbered in
+// increasing block order (so that it stays upper triangular); `blocks`
+// receives each local block's global one. Null when out of memory.
+cholmod_sparse* SideGraph(const BlockPattern& pattern, const std::vector<int>& side, int s,
+                          std::vector<int>* blocks, cholmod_common* common) {
+  const int nb = pattern.blocks();
+  std::vector<int> local(nb, -1);
+  blocks->clear();
+  for (int b = 0; b < nb; ++b)
+    if (side[b] == s) local[b] = static_cast<int>(blocks->size()), blocks->push_back(b);
+  std::vector<int> p(1, 0), i;
+  for (int b : *blocks) {
+    for (int k = pattern.bp[b]; k < pattern.bp[b + 1]; ++k)
+      if (local[pattern.bi[k]] >= 0) i.push_back(local[pattern.bi[k]]);
+    p.push_back(static_cast<int>(i.size()));
+  }
+  const int m = static_cast<int>(blocks->size());
+  cholmod_sparse* g = cholmod_allocate_sparse(m, m, i.size(), 1, 1, 1, CHOLMOD_PATTERN, common);
+  if (!g) return nullptr;
+  std::memcpy(g->p, p.data(), sizeof(int) * p.size());
+  if (!i.empty()) std::memcpy(g->i, i.data(), sizeof(int) * i.size());
+  return g;
+}
+
+}  // namespace
+
+std::vector<int> SideNestedDissection(const BlockPattern& pattern, const std::vector<int>& side,
+                                      int s, cholmod_common* common) {
+  std::vector<int> blocks;
+  cholmod_sparse* g = SideGraph(pattern, side, s, &blocks, common);
+  if (!g) return {};
+  std::vector<int> nd(blocks.size());
+  const bool ok = !blocks.empty() && cholmod_metis(g, nullptr, 0, /*postorder=*/0, nd.data(), common);
+  cholmod_free_sparse(&g, common);
+  if (!ok) return {};
+  for (int& k : nd) k = blocks[k];
+  return nd;
+}
+
 std::vector<int> FillReducingBlockOrder(const BlockPattern& pattern, cholmod_common* common,
                                         int nested_dissection_min_blocks) {
   cholmod_sparse* graph = BlockGraph(pattern, common);
@@ -75,8 +123,8 @@ std::vector<int> FillReducingBlockOrder(const BlockPattern& pattern, cholmod_com
   if (ok && pattern.blocks() >= nested_dissection_min_blocks) {
     std::vector<int> nd(pattern.blocks());
     if (cholmod_metis(graph, nullptr, 0, /*postorder=*/0, nd.data(), common)) {
-      const double amd_flops = BlockFactorFlops(graph, &order, common);
-      const double nd_flops = BlockFactorFlops(graph, &nd, common);
+      const double amd_flops = GraphFactorFlops(graph, &order, common);
+      const double nd_flops = GraphFactorFlops(graph, &nd, common);
       if (nd_flops < amd_flops) order.swap(nd);
     }
   }

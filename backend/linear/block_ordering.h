@@ -38,6 +38,17 @@ constexpr int kNestedDissectionMinBlocks = 250000;
 std::vector<int> FillReducingBlockOrder(const BlockPattern& pattern, cholmod_common* common,
                                         int nested_dissection_min_blocks = kNestedDissectionMinBlocks);
 
+// Flops of the block graph's Cholesky factor in `order` (CHOLMOD's symbolic
+// analysis; infinite when it fails): the scalar factor's are these times
+// about the block size cubed, whatever the order.
+double BlockFactorFlops(const BlockPattern& pattern, std::vector<int>* order,
+                        cholmod_common* common);
+
+// The blocks with side[b] == s, ordered by nested dissection (METIS) of
+// the graph they induce; empty when METIS fails or there are none.
+std::vector<int> SideNestedDissection(const BlockPattern& pattern, const std::vector<int>& side,
+                                      int s, cholmod_common* common);
+
 // The block ordering followed by a postorder of the block graph's
 // elimination tree in it: each subtree's blocks, hence each supernode's
 // columns, become contiguous, as CHOLMOD's own analysis would order them

@@ -16,13 +16,33 @@ CholmodCommon::CholmodCommon() {
   // the normal matrices of city10000 and sphere2500 (bench_gauss_newton):
   // 58 -> 37 ms and 41 -> 30 ms per factorisation, for 1.7 and 1.5 times
   // the nonzeros.
-  common_.nrelax[0] = 16;
-  common_.nrelax[1] = 64;
-  common_.nrelax[2] = 128;
-  common_.zrelax[0] = 0.8;
-  common_.zrelax[1] = 0.3;
-  common_.zrelax[2] = 0.1;
+  SetSupernodes(/*coarse=*/true);
   common_.error_handler = nullptr;
+}
+
+void CholmodCommon::SetSupernodes(bool coarse) {
+  const int nrelax[2][3] = {{4, 16, 48}, {16, 64, 128}};
+  const double zrelax[2][3] = {{0.8, 0.1, 0.05}, {0.8, 0.3, 0.1}};
+  for (int k = 0; k < 3; ++k) {
+    common_.nrelax[k] = nrelax[coarse][k];
+    common_.zrelax[k] = zrelax[coarse][k];
+  }
+}
+
+// The coarse supernodes' explicit zeros cost little on the shared files'
+// factors (1-3 million entries) but grow with the graph: on the simulated
+// 200,000- and 1,000,000-pose 2D graphs they made the factor three times
+// its exact size (m200k: 58.9 M entries for 19.3 M nonzeros; CHOLMOD's own
+// settings 29.3 M), which was most of the solve's peak memory, for no
+// speed (docs/benchmarks.md, "Memory").
+cholmod_factor* CholmodCommon::Analyze(cholmod_sparse* a, double fine_above) {
+  cholmod_factor* factor = cholmod_analyze(a, &common_);
+  if (!factor || !factor->is_super || common_.lnz <= fine_above) return factor;
+  cholmod_free_factor(&factor, &common_);
+  SetSupernodes(/*coarse=*/false);
+  factor = cholmod_analyze(a, &common_);
+  SetSupernodes(/*coarse=*/true);
+  return factor;
 }
 
 CholmodCommon::~CholmodCommon() { cholmod_finish(&common_); }

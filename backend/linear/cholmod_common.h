@@ -17,10 +17,17 @@ class CholmodCommon {
   CholmodCommon(const CholmodCommon&) = delete;
   CholmodCommon& operator=(const CholmodCommon&) = delete;
 
+  // cholmod_analyze, and for a supernodal factor of more than `fine_above`
+  // (exact nonzeros of L) the analysis again with CHOLMOD's own finer
+  // supernodes: null when it fails.
+  cholmod_factor* Analyze(cholmod_sparse* a, double fine_above = kFineSupernodesMinNonZeros);
+  static constexpr double kFineSupernodesMinNonZeros = 8e6;
+
   cholmod_common* get() { return &common_; }
   cholmod_common* operator->() { return &common_; }
 
  private:
+  void SetSupernodes(bool coarse);
   cholmod_common common_;
 };
 

@@ -20,7 +20,11 @@ constexpr double kMinWorkToSplit = 2e7;
 // Whether and where it splits depends on the matrix alone, never on
 // `threads`: with one thread the halves are factorised one after the other,
 // with the same arithmetic, so the result is the same to the last bit.
+// Graphs of `nested_dissection_min_blocks` blocks or more have their
+// halves ordered by nested dissection too (-1: kNestedDissectionMinBlocks,
+// block_ordering.h).
 std::unique_ptr<SparseCholesky> CreateDomainCholesky(double min_work = kMinWorkToSplit,
-                                                     int threads = 2);
+                                                     int threads = 2,
+                                                     int nested_dissection_min_blocks = -1);
 
 }  // namespace cairn

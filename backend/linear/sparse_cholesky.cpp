@@ -164,7 +164,9 @@ class Cholmod final : public SparseCholesky {
     common_->supernodal = method == CHOLMOD_AUTO ? CHOLMOD_AUTO
                          : supernodal_          ? CHOLMOD_SUPERNODAL
                                                 : CHOLMOD_SIMPLICIAL;
-    factor_ = cholmod_analyze(permuted_, common_.get());
+    // CHOLMOD's own choice is redone on the other layout when supernodal.
+    factor_ = method == CHOLMOD_AUTO ? cholmod_analyze(permuted_, common_.get())
+                                     : common_.Analyze(permuted_);
     if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
     b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, common_.get());
   }

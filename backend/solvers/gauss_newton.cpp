@@ -107,6 +107,12 @@ CholeskyKind GaussNewtonProblem::LinearSolver() const {
 int GaussNewtonProblem::NumParameterBlocks() const { return static_cast<int>(blocks_.size()); }
 int GaussNewtonProblem::NumResidualBlocks() const { return static_cast<int>(residuals_.size()); }
 
+void GaussNewtonProblem::Reserve(size_t blocks, size_t residuals) {
+  blocks_.reserve(blocks);
+  block_index_.reserve(blocks);
+  residuals_.reserve(residuals);
+}
+
 void GaussNewtonProblem::AddParameterBlock(double* values, int size,
                                            const ceres::Manifold* manifold) {
   auto it = block_index_.find(values);
@@ -503,6 +509,7 @@ std::vector<int> GaussNewtonProblem::PlanNormalMatrix() {
     }
     col_blocks[c + 1] = static_cast<int>(w.h_blocks.size());
   }
+  w.h_blocks.shrink_to_fit();  // the doubling's slack, 30 MB at a million poses
   return col_blocks;
 }
 
@@ -514,10 +521,12 @@ void GaussNewtonProblem::PlanPattern(const std::vector<int>& col_blocks, std::ve
   const std::vector<int>& variables = w.variables;
   const int nvar = static_cast<int>(variables.size());
   col_ptr->assign(w.n + 1, 0);
+  size_t starts = 0;
   for (auto& hb : w.h_blocks) {
-    hb.start = static_cast<int>(w.col_start.size());
-    w.col_start.resize(w.col_start.size() + blocks_[variables[hb.col_block]].tangent);
+    hb.start = static_cast<int>(starts);
+    starts += blocks_[variables[hb.col_block]].tangent;
   }
+  w.col_start.resize(starts);
   w.diagonal.resize(w.n);
   for (int c = 0; c < nvar; ++c) {
     const Block& cb = blocks_[variables[c]];

@@ -37,6 +37,7 @@ SolveResult SolveGaussNewton(PoseGraph& graph, const GaussNewtonOptions& options
   const HeldRotationManifold held_rotation(manifold.get(), graph.dimension() == 2 ? 2 : 3);
   const auto loop_closure_loss = MakeLoss(options.loop_closure_loss);
   GaussNewtonProblem problem;
+  problem.Reserve(graph.vertices().size(), graph.edges().size());
   const std::vector<bool>& held = gauge.held;
   auto& vertices = graph.vertices();
   for (size_t i = 0; i < vertices.size(); ++i) {

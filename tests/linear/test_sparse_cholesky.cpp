@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <string>
 #include <cmath>
 #include <cstdlib>
 #include <utility>
@@ -309,6 +310,121 @@ TEST(BlockOrdering, LargePlanarGraphsTakeNestedDissection) {
     const long amd_nnz = FactorNonZerosIn(amd, n, col_ptr, rows, values);
     EXPECT_LT(nd_nnz, 0.9 * amd_nnz) << "nested dissection " << nd_nnz << ", AMD " << amd_nnz;
   }
+}
+
+// The grid's matrix as CHOLMOD holds it (upper triangle), and A x for it.
+cholmod_sparse* GridMatrix(int side, cholmod_common* common, std::vector<int>* col_ptr,
+                           std::vector<int>* rows, std::vector<double>* values) {
+  GridPattern(side, col_ptr, rows, values);
+  const int n = side * side;
+  cholmod_sparse* a =
+      cholmod_allocate_sparse(n, n, rows->size(), 1, 1, /*stype=*/1, CHOLMOD_REAL, common);
+  std::copy(col_ptr->begin(), col_ptr->end(), static_cast<int*>(a->p));
+  std::copy(rows->begin(), rows->end(), static_cast<int*>(a->i));
+  std::copy(values->begin(), values->end(), static_cast<double*>(a->x));
+  return a;
+}
+
+// A factor above the bound is analysed again with CHOLMOD's finer
+// supernodes: fewer stored entries, the same nonzeros and the same solution;
+// at or below it the coarse supernodes stay.
+TEST(CholmodCommon, LargeFactorsTakeFinerSupernodes) {
+  CholmodCommon common;
+  std::vector<int> col_ptr, rows;
+  std::vector<double> values;
+  cholmod_sparse* a = GridMatrix(120, common.get(), &col_ptr, &rows, &values);
+  const int n = static_cast<int>(a->nrow);
+  common->supernodal = CHOLMOD_SUPERNODAL;
+  cholmod_dense* b = cholmod_ones(n, 1, CHOLMOD_REAL, common.get());
+  size_t xsize[2];
+  double lnz[2];
+  Eigen::VectorXd x[2];
+  for (int fine = 0; fine < 2; ++fine) {
+    cholmod_factor* f = common.Analyze(a, fine ? 0.0 : 1e18);
+    ASSERT_NE(f, nullptr);
+    ASSERT_TRUE(f->is_super);
+    lnz[fine] = common->lnz;
+    ASSERT_TRUE(cholmod_factorize(a, f, common.get()));
+    xsize[fine] = f->xsize;
+    cholmod_dense* sol = cholmod_solve(CHOLMOD_A, f, b, common.get());
+    x[fine] = Eigen::Map<Eigen::VectorXd>(static_cast<double*>(sol->x), n);
+    cholmod_free_dense(&sol, common.get());
+    cholmod_free_factor(&f, common.get());
+  }
+  EXPECT_LT(xsize[1], 0.9 * xsize[0]) << "fine " << xsize[1] << ", coarse " << xsize[0];
+  EXPECT_EQ(lnz[0], lnz[1]);
+  EXPECT_LT((x[1] - x[0]).norm(), 1e-12 * x[0].norm());
+  // The default bound (8 million nonzeros) leaves this small factor coarse;
+  // and the settings are coarse again after a fine analysis.
+  ASSERT_LT(lnz[0], CholmodCommon::kFineSupernodesMinNonZeros);
+  for (int k = 0; k < 2; ++k) {
+    cholmod_factor* f = common.Analyze(a);
+    EXPECT_EQ(f->xsize, xsize[0]);
+    cholmod_free_factor(&f, common.get());
+  }
+  cholmod_free_dense(&b, common.get());
+  cholmod_free_sparse(&a, common.get());
+}
+
+// Sides of a grid split by a column of nodes: each side's nested
+// dissection orders exactly that side's blocks, and with the separator last
+// it fills far less than the sides' natural (banded) orders.
+TEST(BlockOrdering, SideNestedDissectionOrdersOneSideAlone) {
+  CholmodCommon common;
+  const int side = 60, n = side * side;
+  std::vector<int> col_ptr, rows;
+  std::vector<double> values;
+  GridPattern(side, &col_ptr, &rows, &values);
+  const BlockPattern pattern = MakeBlockPattern(n, col_ptr, rows, std::vector<int>(n, 1));
+  std::vector<int> sides(n);
+  for (int b = 0; b < n; ++b) sides[b] = b % side < 29 ? 0 : b % side == 29 ? 2 : 1;
+  std::vector<int> dissected, banded;
+  for (int s = 0; s < 2; ++s) {
+    const std::vector<int> nd = SideNestedDissection(pattern, sides, s, common.get());
+    std::vector<int> expected;
+    for (int b = 0; b < n; ++b)
+      if (sides[b] == s) expected.push_back(b);
+    std::vector<int> sorted = nd;
+    std::sort(sorted.begin(), sorted.end());
+    EXPECT_EQ(sorted, expected) << "side " << s;
+    EXPECT_NE(nd, expected) << "side " << s << " left in its natural order";
+    dissected.insert(dissected.end(), nd.begin(), nd.end());
+    banded.insert(banded.end(), expected.begin(), expected.end());
+  }
+  for (int b = 0; b < n; ++b)
+    if (sides[b] == 2) dissected.push_back(b), banded.push_back(b);
+  const double nd_flops = BlockFactorFlops(pattern, &dissected, common.get());
+  const double banded_flops = BlockFactorFlops(pattern, &banded, common.get());
+  EXPECT_LT(nd_flops, 0.5 * banded_flops) << nd_flops << " against " << banded_flops;
+  std::vector<int> none(n, 2);
+  EXPECT_TRUE(SideNestedDissection(pattern, none, 0, common.get()).empty());
+}
+
+// Two halves of a graph at or above the bound are ordered by nested
+// dissection within each half: the same solution, less fill than CAMD's
+// order of the halves (the default bound, far above this grid, keeps CAMD).
+TEST(SparseCholesky, LargeHalvesTakeNestedDissection) {
+  const int side = 400, n = side * side;
+  std::vector<int> col_ptr, rows;
+  std::vector<double> values;
+  GridPattern(side, &col_ptr, &rows, &values);
+  const std::vector<int> sizes(n, 1);
+  long nonzeros[2];
+  std::vector<double> x[2];
+  for (int nd = 0; nd < 2; ++nd) {
+    auto chol = CreateDomainCholesky(/*min_work=*/0, 2, nd ? n : -1);
+    chol->Analyze(n, col_ptr, rows, sizes);
+    ASSERT_NE(chol->Method().find("two halves"), std::string::npos) << chol->Method();
+    std::copy(values.begin(), values.end(), chol->values());
+    ASSERT_TRUE(chol->Factorize());
+    std::vector<double> b(n);
+    for (int i = 0; i < n; ++i) b[i] = std::cos(0.01 * i);
+    x[nd].resize(n);
+    chol->Solve(b.data(), x[nd].data());
+    nonzeros[nd] = chol->FactorNonZeros();
+  }
+  EXPECT_LT(nonzeros[1], 0.95 * nonzeros[0]) << nonzeros[1] << " against " << nonzeros[0];
+  for (int i = 0; i < n; ++i) EXPECT_NEAR(x[1][i], x[0][i], 1e-10 * std::abs(x[0][i]) + 1e-13);
 }
 
 TEST(SerialLinearAlgebraScope, TurnsLibraryThreadsOffAndRestoresThem) {

@@ -53,7 +53,7 @@ void DeclareSolverOptions(ArgParser& args, OptimizeArgs& a) {
   args.Option("method", &a.method, "lm|dogleg",
               "ceres: Levenberg-Marquardt or Powell's dogleg trust region");
   args.Option("sparse", &a.sparse, "LIB",
-              "ceres: sparse Cholesky library: auto (per graph, see docs/benchmarks.md), "
+              "ceres: sparse Cholesky library: auto (suitesparse, see docs/benchmarks.md), "
               "suitesparse (CHOLMOD), eigen (simplicial LDLT), cxsparse");
   args.Option("max-iterations", &a.common.max_iterations, "N", "stop after N iterations");
   args.Option("robust", &a.robust, "KIND:DELTA",

@@ -45,17 +45,35 @@ class SelectedInverse {
       if (col_[j] == col_[j + 1] || row_[col_[j]] != j ||
           !std::is_sorted(row_.begin() + col_[j], row_.begin() + col_[j + 1]))
         throw std::runtime_error("unexpected layout of the Cholesky factor");
+    std::vector<double> sum(n_, 0.0);
     for (int j = n_ - 1; j >= 0; --j) {
       const int p0 = col_[j], p1 = col_[j + 1];
       const double ljj = l[p0];
-      for (int a = p0 + 1; a < p1; ++a) {
-        double s = 0;
-        for (int b = p0 + 1; b < p1; ++b) s += At(row_[a], row_[b]) * l[b];
-        z_[a] = -s / ljj;
-      }
+      for (int a = p0 + 1; a < p1; ++a) sum[a - p0] = 0;
+      for (int b = p0 + 1; b < p1; ++b) AddColumnTerms(j, b, l, &sum);
+      for (int a = p0 + 1; a < p1; ++a) z_[a] = -sum[a - p0] / ljj;
       double s = 0;
       for (int a = p0 + 1; a < p1; ++a) s += z_[a] * l[a];
       z_[p0] = (1 / ljj - s) / ljj;
+    }
+  }
+
+  // The terms of column j's sums (sum[a - col_[j]] for its entry a) that
+  // column k = row b of it holds: for each entry a of column j with row
+  // i >= k, Z_ik l_b to a's sum and, when i > k, Z_ik l_a to b's (Z is
+  // symmetric). Over every b of column j that is each Z_ik L_kj once. Rows
+  // of column j at or below k are rows of column k (chordal pattern): one
+  // merge of the two sorted columns, no search.
+  void AddColumnTerms(int j, int b, const double* l, std::vector<double>* sum) const {
+    const int p0 = col_[j], p1 = col_[j + 1], k = row_[b];
+    int q = col_[k];
+    const int q1 = col_[k + 1];
+    for (int a = b; a < p1; ++a) {
+      const int i = row_[a];
+      while (q < q1 && row_[q] < i) ++q;
+      if (q == q1 || row_[q] != i) throw std::logic_error("selected inverse: entry off the pattern");
+      (*sum)[a - p0] += z_[q] * l[b];
+      if (a != b) (*sum)[b - p0] += z_[q] * l[a];
     }
   }
 
@@ -179,6 +197,55 @@ std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vecto
   return out;
 }
 
+namespace {
+
+// Columns of L^{-1} P E for a few unit columns E (original unknowns
+// `cols`), P H P^T = L L^T: their joint covariance is the Gram matrix
+// of these. A unit vector's forward solve touches only its column's
+// ancestors in the elimination tree (the rows of a factor's column are
+// ancestors of it), so each solve walks those paths, not all of L.
+class ForwardSolves {
+ public:
+  ForwardSolves(const Eigen::SparseMatrix<double>& L, const Eigen::VectorXi& perm)
+      : l_(L), perm_(perm), pos_(L.cols(), -1) {}
+
+  // S = (L^{-1} P E)^T (L^{-1} P E).
+  Eigen::MatrixXd Covariance(const std::vector<int>& cols) {
+    const int* cp = l_.outerIndexPtr();
+    const int* ri = l_.innerIndexPtr();
+    const double* lx = l_.valuePtr();
+    reach_.clear();
+    for (int c : cols)
+      for (int j = perm_[c]; j >= 0 && pos_[j] < 0; j = cp[j + 1] - cp[j] > 1 ? ri[cp[j] + 1] : -1) {
+        pos_[j] = 0;
+        reach_.push_back(j);
+      }
+    std::sort(reach_.begin(), reach_.end());
+    for (size_t t = 0; t < reach_.size(); ++t) pos_[reach_[t]] = static_cast<int>(t);
+    const int m = static_cast<int>(cols.size());
+    Eigen::MatrixXd y = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(reach_.size()), m);
+    for (int c = 0; c < m; ++c) y(pos_[perm_[cols[c]]], c) = 1;
+    for (int j : reach_) {
+      const int pj = pos_[j];
+      for (int c = 0; c < m; ++c) {
+        const double v = y(pj, c) /= lx[cp[j]];
+        if (v == 0) continue;
+        for (int q = cp[j] + 1; q < cp[j + 1]; ++q) y(pos_[ri[q]], c) -= lx[q] * v;
+      }
+    }
+    for (int j : reach_) pos_[j] = -1;
+    return y.transpose() * y;
+  }
+
+ private:
+  const Eigen::SparseMatrix<double>& l_;
+  const Eigen::VectorXi& perm_;
+  std::vector<int> pos_;    // per column of L: its place in reach_, -1 when not there
+  std::vector<int> reach_;  // the columns the solves touch, ascending
+};
+
+}  // namespace
+
 std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::vector<Edge>& candidates) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   RequireNoLandmarks(graph, "the innovation test");
@@ -186,19 +253,15 @@ std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::ve
   const NormalEquations normal(graph);
   const int n = normal.size(), d = graph.TangentSize();
   if (n == 0) return out;
+  const Eigen::SparseMatrix<double> L = normal.llt().matrixL().nestedExpression();
+  const Eigen::VectorXi perm = normal.llt().permutationP().indices();
+  ForwardSolves solves(L, perm);
   Eigen::MatrixXd J;
   std::vector<int> cols;
   for (size_t k = 0; k < candidates.size(); ++k) {
     const Linearized lin = normal.Restricted(candidates[k], &J, &cols);
-    const int m = static_cast<int>(cols.size());
-    // The two poses' joint covariance: H X = E for their unit columns.
-    Eigen::MatrixXd E = Eigen::MatrixXd::Zero(n, m);
-    for (int i = 0; i < m; ++i) E(cols[i], i) = 1;
-    const Eigen::MatrixXd X = normal.llt().solve(E);
-    Eigen::MatrixXd S(m, m);
-    for (int i = 0; i < m; ++i)
-      for (int j = 0; j < m; ++j) S(i, j) = X(cols[i], j);
-    S = (S + S.transpose()).eval() / 2;
+    // The two poses' joint covariance.
+    const Eigen::MatrixXd S = solves.Covariance(cols);
     const Eigen::MatrixXd P = J * S * J.transpose();
     const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(d, d) + P;
     out[k].chi2 = lin.r.dot(M.ldlt().solve(lin.r));

@@ -57,30 +57,18 @@ std::string Termination(ceres::TerminationType type) {
   return "failure";
 }
 
-// Below this many flops per nonzero of the factor, the supernodes are too
-// small for CHOLMOD's dense kernels to pay in Ceres: city10000 (83) and
-// parking-garage (54) factor faster simplicial, sphere2500 (252) supernodal.
-constexpr double kSupernodalFlopsPerNonzero = 150;
-
-ceres::SparseLinearAlgebraLibraryType SimplicialLibrary() {
-#ifndef CERES_NO_CXSPARSE
-  return ceres::CX_SPARSE;  // measured a little ahead of Eigen's LDLT
-#else
-  return ceres::EIGEN_SPARSE;
-#endif
-}
-
-ceres::SparseLinearAlgebraLibraryType SparseLibraryFor(const PoseGraph& graph,
-                                                       CeresOptions::SparseLibrary choice) {
+ceres::SparseLinearAlgebraLibraryType SparseLibraryFor(CeresOptions::SparseLibrary choice) {
   switch (choice) {
     case CeresOptions::SparseLibrary::kSuiteSparse: return ceres::SUITE_SPARSE;
     case CeresOptions::SparseLibrary::kEigen: return ceres::EIGEN_SPARSE;
     case CeresOptions::SparseLibrary::kCxSparse: return ceres::CX_SPARSE;
     case CeresOptions::SparseLibrary::kAuto: break;
   }
-  return EstimateFactor(graph).FlopsPerNonzero() >= kSupernodalFlopsPerNonzero
-             ? ceres::SUITE_SPARSE
-             : SimplicialLibrary();
+  // SuiteSparse on every graph: measured ahead of CXSparse or level with it
+  // on every shared file once CHOLMOD's BLAS stopped spinning threads
+  // beside the solve (docs/benchmarks.md, "The sparse Cholesky library").
+  // It used to be CXSparse below 150 flops per nonzero of the factor.
+  return ceres::SUITE_SPARSE;
 }
 
 // The largest diagonal entry of any edge's information: the floor on LM's
@@ -255,7 +243,7 @@ ceres::Solver::Options MakeSolverOptions(const PoseGraph& graph, const CeresOpti
     so.eta = 1e-8;
     so.max_linear_solver_iterations = 20000;
   }
-  so.sparse_linear_algebra_library_type = SparseLibraryFor(graph, options.sparse_library);
+  so.sparse_linear_algebra_library_type = SparseLibraryFor(options.sparse_library);
   so.max_num_iterations = options.max_iterations;
   so.max_solver_time_in_seconds = options.max_time_s;
   so.num_threads = ResolveThreads(options.threads);

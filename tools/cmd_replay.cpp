@@ -37,6 +37,8 @@ void DeclarePartialOptions(ArgParser& args, ReplayArgs& a) {
               "gn: poses the factor has room for before a fresh factorisation");
   args.Option("fill-bound", &a.fill_bound, "N",
               "gn: factor entries gained before a fresh ordering and factorisation");
+  args.Option("fill-fraction", &a.partial.fill_fraction, "F",
+              "gn: or this share of the factor's size, when that is more");
 }
 
 // One stderr line every few seconds: a 100,000-pose replay takes minutes.

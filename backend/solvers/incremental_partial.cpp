@@ -48,6 +48,7 @@ PartialUpdater::PartialUpdater(PoseGraph* graph, const ceres::Manifold* manifold
       reserve_(options.reserve_poses),
       fill_bound_(options.fill_bound),
       relinearize_budget_(options.relinearize_budget),
+      fill_fraction_(options.fill_fraction),
       d_(graph->TangentSize()),
       p_(graph->ParameterSize()),
       stride_(d_ * (2 * d_ + 1)),
@@ -66,6 +67,7 @@ bool PartialUpdateOptions::IsValid(std::string* error) const {
   if (reserve_poses < 1) return fail("reserve_poses must be >= 1");
   if (relinearize_budget < 1) return fail("relinearize_budget must be >= 1");
   if (fill_bound < 0) return fail("fill_bound must be >= 0");
+  if (!(fill_fraction >= 0)) return fail("fill_fraction must be a number >= 0");
   return true;
 }
 
@@ -586,7 +588,9 @@ bool PartialUpdater::Update(UpdateResult* out) {
   }
   if (ok && ++updates_since_build_ % 16 == 0) {
     out->factor_nonzeros = factor_->NonZeros();
-    if (out->factor_nonzeros - nnz_at_build_ > fill_bound_) rebuild_ = true;
+    const double bound = std::max(static_cast<double>(fill_bound_),
+                                  fill_fraction_ * static_cast<double>(nnz_at_build_));
+    if (static_cast<double>(out->factor_nonzeros - nnz_at_build_) > bound) rebuild_ = true;
   }
   out->time_s = Seconds(start);
   return ok;

@@ -46,10 +46,14 @@ struct PartialUpdateOptions {
   // factorisation when they are used up.
   int reserve_poses = 500;
   // Entries the factor may gain (fill from loop closures through the
-  // appended poses) before a fresh ordering and factorisation.
+  // appended poses) before a fresh ordering and factorisation: fill_bound,
+  // or fill_fraction of the factor as it was built when that is more (a
+  // fresh factorisation costs what the graph holds, so on a graph ten
+  // times larger it comes ten times less often).
   long fill_bound = 200000;
+  double fill_fraction = 0.1;
 
-  // The thresholds and fill_bound are numbers >= 0, reserve_poses and
+  // The thresholds, fill_bound and fill_fraction are numbers >= 0, reserve_poses and
   // relinearize_budget >= 1.
   bool IsValid(std::string* error) const;
 };
@@ -126,6 +130,7 @@ class PartialUpdater {
   double relinearize_threshold_, wildfire_threshold_;
   int reserve_;
   long fill_bound_, relinearize_budget_;
+  double fill_fraction_;
   int d_, p_, stride_;
   bool valid_ = false;
   bool rebuild_ = true;

@@ -152,6 +152,28 @@ TEST(IncrementalPartial, OptionsOutOfRangeAreRefused) {
   o = IncrementalOptions();
   o.partial.reserve_poses = 0;
   EXPECT_THROW(IncrementalOptimizer(2, o), std::invalid_argument);
+  for (double bad : {-0.1, std::nan("")}) {
+    o = IncrementalOptions();
+    o.partial.fill_fraction = bad;
+    EXPECT_THROW(IncrementalOptimizer(2, o), std::invalid_argument);
+  }
+}
+
+// The fill a factor may gain before a fresh ordering is a share of its
+// size too: with no absolute allowance, a larger share rebuilds less often,
+// and the replay still ends at the batch optimum.
+TEST(IncrementalPartial, FillBoundGrowsWithTheFactor) {
+  const Simulation sim = Sim(2, 600, 1);
+  size_t rebuilds[2];
+  for (int k = 0; k < 2; ++k) {
+    ReplayOptions o;
+    o.incremental.partial.fill_bound = 0;
+    o.incremental.partial.fill_fraction = k == 0 ? 0.0 : 0.5;
+    const ReplayResult r = Replay(sim.noisy, o);
+    rebuilds[k] = r.refactorizations;
+    EXPECT_LT(Relative(r.final_chi2, BatchChi2(sim.noisy)), 1e-6) << "fraction " << k * 0.5;
+  }
+  EXPECT_LT(2 * rebuilds[1], rebuilds[0]) << rebuilds[1] << " against " << rebuilds[0];
 }
 
 }  // namespace

@@ -24,7 +24,7 @@ int main() {
     odometry.from = i - 1;
     odometry.to = i;
     odometry.z = cairn::ToParams(step);
-    odometry.information.topLeftCorner<3, 3>() = information;
+    odometry.information.SetTopLeft(information);
     graph.AddEdge(odometry);
   }
   // Back at the start after each lap: poses 4 and 8 are where pose 0 is.
@@ -34,7 +34,7 @@ int main() {
     loop.from = 0;
     loop.to = i;
     loop.z = cairn::ToParams(cairn::SE2(0, 0, 0));
-    loop.information.topLeftCorner<3, 3>() = information;
+    loop.information.SetTopLeft(information);
     graph.AddEdge(loop);
   }
 

@@ -318,7 +318,7 @@ class GraphBuilder {
     // A step the odometry alone made, tracking lost: a glitch in it must not
     // become a confident edge, which loop closures could not bend back.
     if (lost_since_keyframe_) info *= o_.lost_information_scale;
-    e.information.topLeftCorner<3, 3>() = info;
+    e.information.SetTopLeft(info);
     graph_.AddEdge(e);
     res_.keyframes.push_back({i, path_, std::move(cloud), lost_});
     lost_since_keyframe_ = false;
@@ -391,7 +391,7 @@ class GraphBuilder {
       lc.from = static_cast<int64_t>(j);
       lc.to = static_cast<int64_t>(K);
       lc.z = ToParams(KeyframePose(j).Between(matched));
-      lc.information.topLeftCorner<3, 3>() = linfo;
+      lc.information.SetTopLeft(linfo);
       graph_.AddEdge(lc);
       ++res_.stats.loop_accepted;
       path_at_last_loop_ = path_;

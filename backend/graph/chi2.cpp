@@ -61,7 +61,7 @@ double EdgeChi2(const PoseGraph& graph, const Edge& edge) {
   } else {
     factors::SE3BetweenFactor(z.rotation(), z.translation(), identity)(xi, xj, e.data());
   }
-  return e.dot(edge.information * e);
+  return e.dot(edge.information.Full() * e);
 }
 
 double Chi2(const PoseGraph& graph) {

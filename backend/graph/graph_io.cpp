@@ -168,6 +168,19 @@ void CheckInformation(const Fields& f, Matrix6d* info, int n, InformationRepairs
   }
 }
 
+// The same, into an edge's packed information.
+void ReadUpperTriangle(const Fields& f, size_t first, int n, SymmetricMatrix6* info) {
+  Matrix6d m = info->Full();
+  ReadUpperTriangle(f, first, n, &m);
+  *info = m;
+}
+
+void CheckInformation(const Fields& f, SymmetricMatrix6* info, int n, InformationRepairs* repairs) {
+  Matrix6d m = info->Full();
+  CheckInformation(f, &m, n, repairs);
+  *info = m;
+}
+
 // TORO's 2D order is (xx, xy, yy, tt, xt, yt).
 Matrix6d ToroInformation2D(const Fields& f, size_t first) {
   const double xx = f.Number(first, "an information entry");
@@ -480,8 +493,7 @@ class Reader {
     Matrix6d t = Matrix6d::Zero();
     ReadUpperTriangle(f, 6, 3, &t);
     CheckInformation(f, &t, 3, Repairs());
-    e.information.setZero();
-    e.information.topLeftCorner<3, 3>() = t.topLeftCorner<3, 3>();
+    e.information.SetTopLeft(t.topLeftCorner<3, 3>());
     return e;
   }
 
@@ -694,8 +706,7 @@ void WriteVertex(const PoseGraph& graph, const Vertex& v, std::ostream& out) {
 // translation: what EDGE_SE3_XYZPRIOR says, and written so.
 bool IsTranslationPrior(const PoseGraph& graph, const Edge& e) {
   return graph.dimension() == 3 && e.kind == EdgeKind::kPrior && e.z[3] == 0 && e.z[4] == 0 &&
-         e.z[5] == 0 && e.z[6] == 1 && e.information.bottomRows<3>().isZero(0) &&
-         e.information.rightCols<3>().isZero(0);
+         e.z[5] == 0 && e.z[6] == 1 && e.information.Full().bottomRows<3>().isZero(0);
 }
 
 void WriteEdge(const PoseGraph& graph, const Edge& e, int64_t prior_id, std::ostream& out) {

@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <limits>
 #include <numeric>
 #include <queue>
 #include <stdexcept>
@@ -83,6 +84,9 @@ void PoseGraph::AddEdge(const Edge& edge) {
   if (edge.kind == EdgeKind::kLandmark && dimension_ == 3 && !HasOffset(edge.offset))
     throw std::invalid_argument("landmark observation through offset " +
                                 std::to_string(edge.offset) + ", which is not defined");
+  // ClassifyInformation's tolerance; the matrix it sees is symmetric now.
+  if (!(edge.information.asymmetry() <= 1e-9))
+    throw std::invalid_argument("information matrix is zero, not finite or not symmetric");
   switch (ClassifyInformation(Information(edge))) {
     case InformationClass::kPositiveDefinite:
     case InformationClass::kSingular: break;
@@ -96,9 +100,7 @@ void PoseGraph::AddEdge(const Edge& edge) {
   Edge& e = edges_.back();
   const int n = ResidualSize(e);
   if (n < 6) {
-    const Eigen::MatrixXd used = e.information.topLeftCorner(n, n);
-    e.information.setZero();
-    e.information.topLeftCorner(n, n) = used;
+    e.information.SetTopLeft(e.information.topLeftCorner(n, n));
   }
   if (e.IsLandmark()) {
     std::fill(e.z.begin() + dimension_, e.z.end(), 0.0);
@@ -118,6 +120,52 @@ size_t PoseGraph::CountFixed() const {
   size_t n = 0;
   for (const Vertex& v : vertices_) n += v.fixed;
   return n;
+}
+
+SymmetricMatrix6& SymmetricMatrix6::operator=(const Matrix6d& m) {
+  for (int r = 0; r < 6; ++r)
+    for (int c = r; c < 6; ++c) v_[Index(r, c)] = m(r, c);
+  // Not finite anywhere (the lower triangle too): refused as asymmetric.
+  const double off = (m - m.transpose()).cwiseAbs().maxCoeff();
+  asymmetry_ = !m.allFinite() ? std::numeric_limits<double>::infinity()
+               : off == 0     ? 0.0
+                              : off / m.cwiseAbs().maxCoeff();
+  return *this;
+}
+
+const Matrix6d SymmetricMatrix6::Full() const {
+  Matrix6d m;
+  for (int r = 0; r < 6; ++r)
+    for (int c = r; c < 6; ++c) m(r, c) = m(c, r) = v_[Index(r, c)];
+  return m;
+}
+
+void SymmetricMatrix6::SetTopLeft(const Eigen::MatrixXd& m) {
+  Matrix6d full = Matrix6d::Zero();
+  full.topLeftCorner(m.rows(), m.cols()) = m;
+  *this = full;
+}
+
+void SymmetricMatrix6::setZero() {
+  v_.fill(0.0);
+  asymmetry_ = 0;
+}
+
+SymmetricMatrix6& SymmetricMatrix6::operator*=(double s) {
+  for (double& x : v_) x *= s;
+  return *this;
+}
+
+double SymmetricMatrix6::trace() const {
+  double t = 0;
+  for (int k = 0; k < 6; ++k) t += v_[Index(k, k)];
+  return t;
+}
+
+const Vector6d SymmetricMatrix6::diagonal() const {
+  Vector6d d;
+  for (int k = 0; k < 6; ++k) d[k] = v_[Index(k, k)];
+  return d;
 }
 
 Eigen::MatrixXd PoseGraph::Information(const Edge& e) const {

@@ -38,6 +38,60 @@ struct Vertex {
   bool landmark = false;  // a point (in the padding after `fixed`: no growth)
 };
 
+// A symmetric 6x6 matrix kept as its upper triangle (21 doubles, not 36):
+// an edge's information, of which a graph holds one per edge (at a million
+// edges, 190 MB saved). Assigned from a full matrix it keeps the upper
+// triangle and remembers how far from symmetric that matrix was, so that
+// PoseGraph::AddEdge can still refuse an asymmetric one.
+class SymmetricMatrix6 {
+ public:
+  SymmetricMatrix6() : SymmetricMatrix6(Matrix6d::Identity()) {}
+  SymmetricMatrix6(const Matrix6d& m) { *this = m; }  // NOLINT: as the Matrix6d it replaced
+  SymmetricMatrix6& operator=(const Matrix6d& m);
+
+  const Matrix6d Full() const;
+  operator Matrix6d() const { return Full(); }  // NOLINT
+  double operator()(int r, int c) const { return v_[Index(r, c)]; }
+  double& operator()(int r, int c) { return v_[Index(r, c)]; }
+  // Blocks are copies, const so that writing to one does not compile (it
+  // would be lost): writes go through SetTopLeft or operator().
+  template <int R, int C>
+  const Eigen::Matrix<double, R, C> topLeftCorner() const {
+    return Full().topLeftCorner<R, C>();
+  }
+  const Eigen::MatrixXd topLeftCorner(int rows, int cols) const {
+    return Full().topLeftCorner(rows, cols);
+  }
+  template <int R, int C>
+  const Eigen::Matrix<double, R, C> bottomRightCorner() const {
+    return Full().bottomRightCorner<R, C>();
+  }
+  // The top-left block set to the square matrix m, every other entry zero.
+  void SetTopLeft(const Eigen::MatrixXd& m);
+  void setZero();
+  SymmetricMatrix6& operator*=(double s);
+  double trace() const;
+  const Vector6d diagonal() const;
+  const Matrix6d inverse() const { return Full().inverse(); }
+  void setIdentity() { *this = Matrix6d::Identity(); }
+  bool isApprox(const SymmetricMatrix6& o, double precision = 1e-12) const {
+    return Full().isApprox(o.Full(), precision);
+  }
+  // max |m - m^T| / max |m| of the last full matrix assigned (0 after the
+  // other writes, which keep the matrix symmetric).
+  double asymmetry() const { return asymmetry_; }
+  bool operator==(const SymmetricMatrix6& o) const { return v_ == o.v_; }
+  bool operator!=(const SymmetricMatrix6& o) const { return v_ != o.v_; }
+
+ private:
+  static int Index(int r, int c) {
+    if (r > c) std::swap(r, c);
+    return r * 6 - r * (r - 1) / 2 + (c - r);
+  }
+  std::array<double, 21> v_{};
+  double asymmetry_ = 0;
+};
+
 struct Edge {
   EdgeKind kind = EdgeKind::kOdometry;
   // 3D landmark observations: the PARAMS_SE3OFFSET id of the sensor offset
@@ -48,7 +102,7 @@ struct Edge {
   PoseParams z{};    // measurement, laid out like a vertex (a point's: its first 2 or 3)
   // The residual's block, top-left (3x3 or 6x6 for poses, 2x2 or 3x3 for
   // points); the rest zero once added.
-  Matrix6d information = Matrix6d::Identity();
+  SymmetricMatrix6 information;
 
   // A unary edge (on `from` alone).
   bool IsPrior() const { return kind == EdgeKind::kPrior || kind == EdgeKind::kLandmarkPrior; }

@@ -24,8 +24,7 @@ Edge MakeEdge(EdgeKind kind, int64_t from, int64_t to, const PoseParams& z,
   e.from = from;
   e.to = to;
   e.z = z;
-  e.information.setZero();
-  e.information.topLeftCorner(information.rows(), information.cols()) = information;
+  e.information.SetTopLeft(information);
   return e;
 }
 

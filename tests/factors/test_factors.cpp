@@ -186,8 +186,7 @@ void CheckCostIsHalfChi2(PoseGraph& graph, Random& rng, MakePose pose, MakeNoise
     e.z = ToParams(kind == EdgeKind::kPrior ? xi : xi * noise());
     Eigen::MatrixXd info = graph.dimension() == 2 ? Eigen::MatrixXd(rng.Information<3>())
                                                   : Eigen::MatrixXd(rng.Information<6>());
-    e.information.setIdentity();
-    e.information.topLeftCorner(info.rows(), info.cols()) = info;
+    e.information.SetTopLeft(info);
     graph.AddEdge(e);
   };
   for (int i = 0; i + 1 < n; ++i) add(EdgeKind::kOdometry, 100 + i, 101 + i);

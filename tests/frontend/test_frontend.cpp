@@ -430,7 +430,7 @@ PoseGraph SquareLoop() {
     e.from = i;
     e.to = i + 1;
     e.z = ToParams(steps[i]);
-    e.information.topLeftCorner<3, 3>() = Eigen::Vector3d(100, 100, 400).asDiagonal();
+    e.information.SetTopLeft(Eigen::Vector3d(100, 100, 400).asDiagonal());
     g.AddEdge(e);
   }
   Edge lc;
@@ -438,7 +438,7 @@ PoseGraph SquareLoop() {
   lc.from = 0;
   lc.to = n;
   lc.z = ToParams(SE2(0, 0, 0));
-  lc.information.topLeftCorner<3, 3>() = Eigen::Vector3d(1000, 1000, 4000).asDiagonal();
+  lc.information.SetTopLeft(Eigen::Vector3d(1000, 1000, 4000).asDiagonal());
   g.AddEdge(lc);
   lc.from = 2;
   lc.to = 10;

@@ -107,7 +107,9 @@ TEST(ReadG2o, RoundTripKeepsAwkwardDoubles) {
   e.from = 0;
   e.to = 1;
   e.z = {std::nextafter(1.0, 2.0), 0, 0, 0, 0, 0, 0};
-  e.information.topLeftCorner<3, 3>() << 1.0 / 7.0, 1e-17, 0, 1e-17, 2.0 / 3.0, 0, 0, 0, 1e5;
+  Eigen::Matrix3d info;
+  info << 1.0 / 7.0, 1e-17, 0, 1e-17, 2.0 / 3.0, 0, 0, 0, 1e5;
+  e.information.SetTopLeft(info);
   g.AddEdge(e);
   std::ostringstream out;
   WriteG2o(g, out);

@@ -112,8 +112,7 @@ TEST(Information, AddEdgeTakesSingularRefusesIndefinite) {
   Edge prior;
   prior.kind = EdgeKind::kPrior;
   prior.from = 0;
-  prior.information = Matrix6d::Zero();
-  prior.information.topLeftCorner<3, 3>().setIdentity();
+  prior.information.SetTopLeft(Eigen::Matrix3d::Identity());
   EXPECT_NO_THROW(g.AddEdge(prior));
   prior.information(5, 5) = -1;
   EXPECT_THROW(g.AddEdge(prior), std::invalid_argument);

@@ -57,7 +57,9 @@ TEST(Chi2, MatchesHandComputedError2D) {
   g.AddVertex(1, SE2(1, 0, 0.1));
   Edge e = Between2D(0, 1, SE2(1, 0, 0));
   // Non-diagonal information: e^T Omega e with e = (0, 0, 0.1).
-  e.information.topLeftCorner<3, 3>() << 2, 0.5, 0.1, 0.5, 3, 0.2, 0.1, 0.2, 4;
+  Eigen::Matrix3d info;
+  info << 2, 0.5, 0.1, 0.5, 3, 0.2, 0.1, 0.2, 4;
+  e.information.SetTopLeft(info);
   g.AddEdge(e);
   EXPECT_NEAR(Chi2(g), 4 * 0.01, 1e-15);
   // Moving pose 1 sideways by 0.2 in pose 0's frame adds y error.

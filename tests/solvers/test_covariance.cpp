@@ -33,7 +33,7 @@ TEST(Covariance, OneEdgeFromAFixedPose2D) {
   e.from = 0;
   e.to = 1;
   e.z = ToParams(z);
-  e.information.topLeftCorner<3, 3>() = info;
+  e.information.SetTopLeft(info);
   g.AddEdge(e);
   for (SolverKind s : {SolverKind::kCeres, SolverKind::kGaussNewton}) {
     const auto cov = MarginalCovariances(g, {0, 1}, s);

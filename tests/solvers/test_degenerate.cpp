@@ -27,7 +27,7 @@ Edge Between(int64_t from, int64_t to, const SE2& z) {
   e.from = from;
   e.to = to;
   e.z = ToParams(z);
-  e.information.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() * 10;
+  e.information.SetTopLeft(Eigen::Matrix3d::Identity() * 10);
   return e;
 }
 

@@ -175,7 +175,7 @@ TEST(LandmarkSolvers, LandmarkCovarianceByHand) {
     e.information.setZero();
     Eigen::Matrix3d info;
     info << 4, 1, 0.5, 1, 3, 0.2, 0.5, 0.2, 2;
-    e.information.topLeftCorner(dim, dim) = info.topLeftCorner(dim, dim);
+    e.information.SetTopLeft(info.topLeftCorner(dim, dim));
     g.AddEdge(e);
     const Eigen::MatrixXd rd = r.topLeftCorner(dim, dim);
     const Eigen::MatrixXd expected =

@@ -52,7 +52,7 @@ size_t WriteIndefinite(int dimension, const std::string& path, size_t* first_lin
     const Eigen::MatrixXd p = Eigen::MatrixXd::Identity(n, n) - u * u.transpose();
     const Eigen::MatrixXd rest = p * e.information.topLeftCorner(n, n) * p;
     const double largest = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(rest).eigenvalues()[n - 1];
-    e.information.topLeftCorner(n, n) = rest - 0.4 * largest * u * u.transpose();
+    e.information.SetTopLeft(rest - 0.4 * largest * u * u.transpose());
     ++changed;
   }
   WriteG2o(g, path);

@@ -380,17 +380,17 @@ class DomainCholmod final : public SparseCholesky {
   }
 
   // As the single factorisation does (block_ordering.h), large halves are
-  // also ordered by nested dissection, each on its own core, and that order
-  // is taken when its factor costs fewer flops than CAMD's: at a million 2D
-  // poses the halves' factors are most of the solve's memory.
+  // also ordered by nested dissection, and that order is taken when its
+  // factor costs fewer flops than CAMD's: at a million 2D poses the halves'
+  // factors are most of the solve's memory. One half after the other:
+  // METIS draws from one random state for the whole process, so two at
+  // once made the orders (and the result's last digits) differ from run to
+  // run. The two flop counts are CHOLMOD's own analyses, run at once.
   void DissectHalves(const BlockPattern& pattern, const std::vector<int>& side,
                      std::vector<int>* order) {
     if (!pool_) pool_ = std::make_unique<ThreadPool>(threads_);
     std::vector<int> nd[2];
-    pool_->ParallelFor(2, [&](size_t begin, size_t end) {
-      for (size_t g = begin; g < end; ++g)
-        nd[g] = SideNestedDissection(pattern, side, static_cast<int>(g), half_[g].common.get());
-    }, 1);
+    for (int g = 0; g < 2; ++g) nd[g] = SideNestedDissection(pattern, side, g, half_[g].common.get());
     if (nd[0].empty() || nd[1].empty()) return;
     std::vector<int> candidate[2] = {std::move(nd[0]), *order};
     candidate[0].insert(candidate[0].end(), nd[1].begin(), nd[1].end());

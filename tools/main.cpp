@@ -67,8 +67,9 @@ void InitLogging(const char* argv0, bool verbose) {
 // kernel with huge pages off) keeps the process as it is. Which commands
 // solve, each says as it registers (CAIRN_SOLVING_COMMAND). Inputs under
 // kSmallInputBytes are solved as they are: on the shared files under 1 MB
-// (intel, MIT, CSAIL, smallGrid3D, manhattan) the restart cost 4 ms of a
-// 12-30 ms run and saved none; from sphere2500 (1.1 MB) up it pays.
+// the restart cost about 4 ms of a 12-30 ms run (intel, MIT, CSAIL,
+// smallGrid3D) or was level (manhattan, 0.6 MB); from sphere2500 (1.1 MB)
+// up it pays.
 constexpr std::uintmax_t kSmallInputBytes = 1000000;
 
 bool SmallInput(char** argv) {

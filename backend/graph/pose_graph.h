@@ -77,8 +77,8 @@ class SymmetricMatrix6 {
   bool isApprox(const SymmetricMatrix6& o, double precision = 1e-12) const {
     return Full().isApprox(o.Full(), precision);
   }
-  // max |m - m^T| / max |m| of the last full matrix assigned (0 after the
-  // other writes, which keep the matrix symmetric).
+  // max |m - m^T| / max |m| of the last full matrix assigned (infinite if
+  // it was not finite); setZero clears it, the other writes keep it.
   double asymmetry() const { return asymmetry_; }
   bool operator==(const SymmetricMatrix6& o) const { return v_ == o.v_; }
   bool operator!=(const SymmetricMatrix6& o) const { return v_ != o.v_; }

@@ -65,9 +65,9 @@ ceres::SparseLinearAlgebraLibraryType SparseLibraryFor(CeresOptions::SparseLibra
     case CeresOptions::SparseLibrary::kAuto: break;
   }
   // SuiteSparse on every graph: measured ahead of CXSparse or level with it
-  // on every shared file once CHOLMOD's BLAS stopped spinning threads
-  // beside the solve (docs/benchmarks.md, "The sparse Cholesky library").
-  // It used to be CXSparse below 150 flops per nonzero of the factor.
+  // on every shared file (docs/benchmarks.md, "The sparse Cholesky
+  // library"). The measurement that had CXSparse below 150 flops per
+  // nonzero of the factor predates OpenBLAS being held to one thread.
   return ceres::SUITE_SPARSE;
 }
 

@@ -73,7 +73,6 @@ class SymmetricMatrix6 {
   double trace() const;
   const Vector6d diagonal() const;
   const Matrix6d inverse() const { return Full().inverse(); }
-  void setIdentity() { *this = Matrix6d::Identity(); }
   bool isApprox(const SymmetricMatrix6& o, double precision = 1e-12) const {
     return Full().isApprox(o.Full(), precision);
   }
@@ -81,7 +80,6 @@ class SymmetricMatrix6 {
   // it was not finite); setZero clears it, the other writes keep it.
   double asymmetry() const { return asymmetry_; }
   bool operator==(const SymmetricMatrix6& o) const { return v_ == o.v_; }
-  bool operator!=(const SymmetricMatrix6& o) const { return v_ != o.v_; }
 
  private:
   static int Index(int r, int c) {

@@ -35,10 +35,16 @@ void CholmodCommon::SetSupernodes(bool coarse) {
 // its exact size (m200k: 58.9 M entries for 19.3 M nonzeros; CHOLMOD's own
 // settings 29.3 M), which was most of the solve's peak memory, for no
 // speed (docs/benchmarks.md, "Memory").
-cholmod_factor* CholmodCommon::Analyze(cholmod_sparse* a, double fine_above) {
-  cholmod_factor* factor = cholmod_analyze(a, &common_);
-  if (!factor || !factor->is_super || common_.lnz <= fine_above) return factor;
-  cholmod_free_factor(&factor, &common_);
+cholmod_factor* CholmodCommon::Analyze(cholmod_sparse* a, double fine_above,
+                                       double known_nonzeros) {
+  cholmod_factor* factor = nullptr;
+  if (known_nonzeros < 0) {
+    factor = cholmod_analyze(a, &common_);
+    if (!factor || !factor->is_super || common_.lnz <= fine_above) return factor;
+    cholmod_free_factor(&factor, &common_);
+  } else if (known_nonzeros <= fine_above) {
+    return cholmod_analyze(a, &common_);
+  }
   SetSupernodes(/*coarse=*/false);
   factor = cholmod_analyze(a, &common_);
   SetSupernodes(/*coarse=*/true);

@@ -19,8 +19,11 @@ class CholmodCommon {
 
   // cholmod_analyze, and for a supernodal factor of more than `fine_above`
   // (exact nonzeros of L) the analysis again with CHOLMOD's own finer
-  // supernodes: null when it fails.
-  cholmod_factor* Analyze(cholmod_sparse* a, double fine_above = kFineSupernodesMinNonZeros);
+  // supernodes: null when it fails. A caller that has analysed the same
+  // pattern already (CHOLMOD's choice of method) gives its nonzeros as
+  // `known_nonzeros`, and the supernodes are chosen before the one analysis.
+  cholmod_factor* Analyze(cholmod_sparse* a, double fine_above = kFineSupernodesMinNonZeros,
+                          double known_nonzeros = -1);
   static constexpr double kFineSupernodesMinNonZeros = 8e6;
 
   cholmod_common* get() { return &common_; }

@@ -238,11 +238,12 @@ struct Half {
     m = LocalPattern(col_ptr, rows, local, size, /*upper=*/true, &scatter, common.get());
     factor = cholmod_analyze(m, common.get());
     if (factor && factor->is_super) {
+      const double nonzeros = common->lnz;
       cholmod_free_factor(&factor, common.get());
       cholmod_free_sparse(&m, common.get());
       m = LocalPattern(col_ptr, rows, local, size, /*upper=*/false, &scatter, common.get());
       common->supernodal = CHOLMOD_SUPERNODAL;
-      factor = common.Analyze(m);
+      factor = common.Analyze(m, CholmodCommon::kFineSupernodesMinNonZeros, nonzeros);
     }
     if (!factor) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
     rhs = cholmod_allocate_dense(size, 1, size, CHOLMOD_REAL, common.get());

@@ -54,9 +54,10 @@ class Cholmod final : public SparseCholesky {
     supernodal_ = mode_ == CHOLMOD_SUPERNODAL;
     AnalyzePermuted(rows, col_ptr, mode_ == CHOLMOD_AUTO ? CHOLMOD_AUTO : -1);
     if (mode_ == CHOLMOD_AUTO && factor_->is_super) {
+      const double nonzeros = common_->lnz;
       Release(/*keep_pattern=*/true);
       supernodal_ = true;
-      AnalyzePermuted(rows, col_ptr);
+      AnalyzePermuted(rows, col_ptr, -1, nonzeros);
     }
   }
 
@@ -149,9 +150,10 @@ class Cholmod final : public SparseCholesky {
   // triangle each method reads without copying, and each factorisation only
   // scatters the values into it; its symbolic factor needs no ordering.
   // `method`: CHOLMOD_AUTO to let CHOLMOD choose (the layout stays the
-  // simplicial one), else supernodal_ says.
+  // simplicial one), else supernodal_ says; `known_nonzeros`: L's, from
+  // that choice's analysis (CholmodCommon::Analyze).
   void AnalyzePermuted(const std::vector<int>& rows, const std::vector<int>& col_ptr,
-                       int method = -1) {
+                       int method = -1, double known_nonzeros = -1) {
     const int n = n_;
     std::vector<int> inverse(n);
     for (int k = 0; k < n; ++k) inverse[perm_[k]] = k;
@@ -165,8 +167,10 @@ class Cholmod final : public SparseCholesky {
                          : supernodal_          ? CHOLMOD_SUPERNODAL
                                                 : CHOLMOD_SIMPLICIAL;
     // CHOLMOD's own choice is redone on the other layout when supernodal.
-    factor_ = method == CHOLMOD_AUTO ? cholmod_analyze(permuted_, common_.get())
-                                     : common_.Analyze(permuted_);
+    factor_ = method == CHOLMOD_AUTO
+                  ? cholmod_analyze(permuted_, common_.get())
+                  : common_.Analyze(permuted_, CholmodCommon::kFineSupernodesMinNonZeros,
+                                    known_nonzeros);
     if (!factor_) throw std::runtime_error("CHOLMOD: symbolic analysis failed");
     b_ = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, common_.get());
   }

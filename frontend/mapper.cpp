@@ -8,6 +8,7 @@
 #include <iomanip>
 #include <memory>
 #include <ostream>
+#include <utility>
 
 namespace cairn::frontend {
 namespace {
@@ -113,11 +114,15 @@ class GraphBuilder {
     if (!progress_ || Since(last_report_) < o_.progress_interval_s) return;
     last_report_ = Clock::now();
     const MapperStats& st = res_.stats;
+    const auto saved_flags = progress_->flags();
+    const auto saved_precision = progress_->precision();
     *progress_ << "map: scan " << scans_done << " of " << log_.scans.size() << ", "
                << res_.keyframes.size() << " keyframes, " << st.loop_accepted << " loop closures, "
                << st.recoveries << " recoveries, " << st.tracking_failures
                << " fell back to odometry, " << std::fixed
-               << std::setprecision(1) << Since(start_) << " s" << std::defaultfloat << "\n";
+               << std::setprecision(1) << Since(start_) << " s\n";
+    progress_->flags(saved_flags);
+    progress_->precision(saved_precision);
   }
 
   SE2 KeyframePose(size_t k) const { return ToSE2(graph_.vertex(static_cast<int64_t>(k)).x); }
@@ -168,7 +173,10 @@ class GraphBuilder {
     const SE2 predicted = current_ * SE2(scale * inc.x(), scale * inc.y(), inc.theta());
     std::optional<IcpResult> match;
     bool doubt = false;
+    // The previous scan's refused wide pose, carried on by the odometry.
+    if (hypothesis_) hypothesis_ = *hypothesis_ * SE2(scale * inc.x(), scale * inc.y(), inc.theta());
     if (cloud.size() >= 20) match = MatchOrRecover(cloud, predicted, &doubt);
+    else hypothesis_.reset();
     if (match) {
       current_ = match->pose;
       *info = ToBodyFrame(match->information, match->pose);
@@ -195,6 +203,12 @@ class GraphBuilder {
     path_ += prev.Between(current_).translation().norm();
     res_.stats.seconds_matching += Since(t0);
     return match.has_value();
+  }
+
+  // Within one odometry step's error of each other.
+  static bool Near(const SE2& a, const SE2& b) {
+    const SE2 d = a.Between(b);
+    return d.translation().norm() < 0.3 && std::abs(d.theta()) < 0.17;
   }
 
   // A match to build on: it converged, and its inliers are not a sudden drop
@@ -226,8 +240,11 @@ class GraphBuilder {
   // window's edge; else a wide search (every heading, +- 2 m) when it finds
   // a better pose that is not ambiguous; else none: the odometry holds.
   // *doubt: the scan disagreed with the odometry (its best pose at the
-  // window's edge) and nothing confirmed either.
+  // window's edge, or a far better fit elsewhere) and nothing confirmed
+  // either.
   std::optional<IcpResult> MatchOrRecover(const PointCloud& cloud, const SE2& predicted, bool* doubt) {
+    // Only the scan right after the one that refused it may second it.
+    const std::optional<SE2> previous = std::exchange(hypothesis_, std::nullopt);
     CorrelativeOptions co;
     co.linear_window = Window(recent_shift_, o_.track_linear_window);
     co.angular_window = Window(recent_turn_, o_.track_angular_window);
@@ -260,18 +277,48 @@ class GraphBuilder {
     const bool narrow_ok = Acceptable(narrow);
     const bool doubted = !narrow_ok || at_edge;
     const double margin = !narrow_ok ? 0.2 : at_edge ? 0.1 : 0.25;
-    const bool wide_better = (narrow_ok ? Good(wide) : Acceptable(wide)) &&
-                             cr.runner_up_ratio < (doubted ? 0.9 : 0.8) &&
+    const bool fits_better = (narrow_ok ? Good(wide) : Acceptable(wide)) &&
                              wide.inlier_fraction >= narrow.inlier_fraction + margin;
+    // An ambiguous wide pose is taken when the previous scan's, refused as
+    // ambiguous too, lands on it through the odometry between them: a
+    // symmetric place offers its twin poses to one scan, rarely the same
+    // twin to two scans in a row.
+    const bool unambiguous = cr.runner_up_ratio < (doubted ? 0.9 : 0.8);
+    const bool seconded = previous && Near(*previous, wide.pose);
+    const bool wide_better = fits_better && (unambiguous || seconded);
     // Below the recent median alone is a reason to look wider, not to drop
     // a match the plain test accepts.
     if (!wide_better) {
       if (Acceptable(narrow)) return narrow;
-      *doubt = at_edge;
+      // The scan disputes the odometry when its best pose lies at the
+      // window's edge, or when it fits far better somewhere the ambiguity
+      // test would not let us take (twice the inliers: a scan that merely
+      // sees little of the local map fits poorly everywhere).
+      const bool elsewhere = fits_better && Good(wide) &&
+                             wide.inlier_fraction >= 2 * narrow.inlier_fraction;
+      *doubt = at_edge || elsewhere;
+      if (elsewhere) hypothesis_ = wide.pose;
       return std::nullopt;
     }
     ++res_.stats.recoveries;
-    return wide;
+    return AlongTheRidge(cloud, predicted, wide);
+  }
+
+  // The wide search settles the heading; along a corridor it cannot settle
+  // the place, and its best pose may lie metres along it. Searched again at
+  // that heading around the predicted position, a pose that fits as well is
+  // the one the odometry supports.
+  IcpResult AlongTheRidge(const PointCloud& cloud, const SE2& predicted, const IcpResult& wide) {
+    CorrelativeOptions co;
+    co.linear_window = Window(recent_shift_, o_.track_linear_window);
+    co.angular_window = 0.087;
+    co.penalty_linear_window = o_.track_linear_window;
+    co.penalty_angular_window = o_.track_angular_window;
+    CorrelativeResult cr;
+    const SE2 centre(predicted.x(), predicted.y(), wide.pose.theta());
+    const IcpResult near = MatchLocalMap(cloud, centre, co, &cr);
+    const bool as_good = Acceptable(near) && near.inlier_fraction >= wide.inlier_fraction - 0.01;
+    return as_good ? near : wide;
   }
 
   IcpResult MatchLocalMap(const PointCloud& cloud, const SE2& predicted, const CorrelativeOptions& co,
@@ -317,7 +364,11 @@ class GraphBuilder {
                                : OdometryInformation(since);
     // A step the odometry alone made, tracking lost: a glitch in it must not
     // become a confident edge, which loop closures could not bend back.
-    if (lost_since_keyframe_) info *= o_.lost_information_scale;
+    // So is the step from a keyframe the odometry placed while lost: the
+    // match that ended the loss moved the pose by what the odometry got
+    // wrong, which is no measured motion.
+    const bool from_lost = res_.keyframes[last].lost;
+    if (lost_since_keyframe_ || from_lost) info *= o_.lost_information_scale;
     e.information.SetTopLeft(info);
     graph_.AddEdge(e);
     res_.keyframes.push_back({i, path_, std::move(cloud), lost_});
@@ -447,6 +498,8 @@ class GraphBuilder {
   std::deque<double> recent_turn_, recent_shift_;  // their distances from the prediction
   bool lost_since_keyframe_ = false;
   bool lost_ = false;  // tracking on odometry alone since a scan disputed it
+  // The last scan's wide pose, refused as ambiguous (at this scan's time).
+  std::optional<SE2> hypothesis_;
   Clock::time_point start_ = Clock::now(), last_report_ = start_;
   MapResult res_;
   PoseGraph& graph_;

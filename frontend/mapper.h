@@ -44,10 +44,13 @@ struct MapperOptions {
   // does not count as a second hypothesis (CorrelativeOptions::ridge_share).
   double recovery_ridge_share = 0.85;
   // When the wide search fails too and the scan disputed the odometry (its
-  // best pose at the window's edge), tracking is lost until a match holds
-  // again: those steps keep the odometry with its information scaled by
-  // this (never a confident wrong edge), keyframes made meanwhile stay out
-  // of the local map, and loop closures re-anchor them later.
+  // best pose at the window's edge, or twice the inliers at a wide pose
+  // refused as ambiguous), tracking is lost until a match holds again:
+  // those steps, and the step out of the loss, keep their motion with the
+  // information scaled by this (never a confident wrong edge), keyframes
+  // made meanwhile stay out of the local map, and loop closures re-anchor
+  // them later. A wide pose refused as ambiguous is taken at the next scan
+  // if that scan's wide search lands on it through the odometry.
   double lost_information_scale = 0.01;
 
   double loop_min_travel = 8.0;         // metres of path between the two ends

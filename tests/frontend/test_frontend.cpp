@@ -490,6 +490,24 @@ TEST(Mapper, ReportsProgressAsItWalksTheLog) {
   EXPECT_EQ(none.str(), "");
 }
 
+// The summary a tool prints after the progress lines must keep its digits:
+// `cairn map` printed a learned odometry scale of 1.01957 as "1".
+TEST(Mapper, ProgressLeavesTheStreamAsItFoundIt) {
+  std::vector<SE2> truth;
+  const CarmenLog log = ReadCarmenLog(WriteTemp("cairn_progress_fmt.log", RoomDriveLog(6, &truth)));
+  MapperOptions o;
+  o.progress_interval_s = 0;
+  std::ostringstream progress;
+  const auto flags = progress.flags();
+  BuildPoseGraph(log, o, &progress);
+  EXPECT_NE(progress.str().find("map: scan 6 of 6, "), std::string::npos);
+  EXPECT_EQ(progress.precision(), 6);
+  EXPECT_EQ(progress.flags(), flags);
+  progress.str("");
+  progress << 1.01957;
+  EXPECT_EQ(progress.str(), "1.01957");
+}
+
 // One odometry step 80 degrees and 40 cm off: the match at the tracking
 // window's edge is judged poor, the wide search finds the scan's pose, and
 // the rest of the drive is tracked in the right frame.

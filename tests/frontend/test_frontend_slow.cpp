@@ -100,6 +100,18 @@ TEST(HarnessEndToEnd, AcesGlitchSeedsOnceLost) {
   }
 }
 
+// Seed 7: at scan 209 the narrow match had 11% inliers and the wide pose
+// 89%, refused as ambiguous; the step kept the odometry's 78 degree error
+// as a confident edge (17.1 m). Such a scan now disputes the odometry, and
+// the edges in and out of the loss are weak. Not yet within 0.15 m
+// (0.637 m: the recovery two scans later lies along a corridor).
+TEST(HarnessEndToEnd, AcesGlitchSeedSevenStaysNearTheLog) {
+  const double ate = HarnessAte("aces", "glitch", 7);
+  if (ate == -1) GTEST_SKIP() << "dataset not found: aces-corrected.log.gz";
+  EXPECT_GT(ate, 0);
+  EXPECT_LE(ate, 1.0);
+}
+
 TEST(HarnessEndToEnd, AcesWithEveryOtherScanDropped) {
   const double ate = HarnessAte("aces", "skip", 1);
   if (ate == -1) GTEST_SKIP() << "dataset not found: aces-corrected.log.gz";

@@ -170,11 +170,12 @@ class GraphBuilder {
     // corridor cannot reveal; learn it where the walls do constrain travel.
     const double scale = OdometryScale();
     const SE2& inc = scan.odometry_increment;
-    const SE2 predicted = current_ * SE2(scale * inc.x(), scale * inc.y(), inc.theta());
+    const SE2 step(scale * inc.x(), scale * inc.y(), inc.theta());
+    const SE2 predicted = current_ * step;
     std::optional<IcpResult> match;
     bool doubt = false;
     // The previous scan's refused wide pose, carried on by the odometry.
-    if (hypothesis_) hypothesis_ = *hypothesis_ * SE2(scale * inc.x(), scale * inc.y(), inc.theta());
+    if (hypothesis_) hypothesis_ = *hypothesis_ * step;
     if (cloud.size() >= 20) match = MatchOrRecover(cloud, predicted, &doubt);
     else hypothesis_.reset();
     if (match) {

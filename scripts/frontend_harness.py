@@ -2,7 +2,7 @@
 """Harder versions of CARMEN corrected logs, and `cairn map` on each.
 
     scripts/frontend_harness.py make LOG.gz CASE OUT.log [--seed S]
-    scripts/frontend_harness.py run CAIRN LOG.gz... [--cases a,b] [--seeds 1,2] [--out DIR]
+    scripts/frontend_harness.py run CAIRN LOG.gz... [--cases a,b] [--seeds 1,2] [--out DIR] [--jobs N]
 
 `make` writes one perturbed log; `run` makes every case of every log (and
 seed) and prints a Markdown table of `cairn map`'s ATE against the log's own
@@ -23,6 +23,7 @@ motion).
 import argparse
 import gzip
 import math
+import multiprocessing
 import os
 import random
 import re
@@ -168,6 +169,17 @@ def ate_of(cairn, log, prefix):
                        " (%s fell back)" % fell.group(1) if fell and fell.group(1) != "0" else "")
 
 
+def run_one(job):
+    """One cell: (cairn, the log, case or None for the plain log, seed, out dir)."""
+    cairn, log, case, seed, out = job
+    name = os.path.basename(log).split("-corrected")[0].split(".")[0]
+    if case is None:
+        return ate_of(cairn, log, os.path.join(out, name))
+    path = os.path.join(out, "%s_%s_%d.log" % (name, case, seed))
+    make(log, case, path, seed)
+    return ate_of(cairn, path, path[:-4])
+
+
 def run(args):
     os.makedirs(args.out, exist_ok=True)
     cases = args.cases.split(",")
@@ -175,15 +187,15 @@ def run(args):
     print("| log | plain | " + " | ".join("%s s%d" % (c, s) if len(seeds) > 1 else c
                                            for c in cases for s in seeds) + " |")
     print("| --- " * (2 + len(cases) * len(seeds)) + "|")
-    for log in args.logs:
-        name = os.path.basename(log).split("-corrected")[0].split(".")[0]
-        row = [name, ate_of(args.cairn, log, os.path.join(args.out, name))]
-        for case in cases:
-            for seed in seeds:
-                path = os.path.join(args.out, "%s_%s_%d.log" % (name, case, seed))
-                make(log, case, path, seed)
-                row.append(ate_of(args.cairn, path, path[:-4]))
-        print("| " + " | ".join(row) + " |", flush=True)
+    rows = [[(args.cairn, log, None, 0, args.out)] +
+            [(args.cairn, log, c, s, args.out) for c in cases for s in seeds] for log in args.logs]
+    # Each cell is one single-threaded `cairn map`: cells run side by side,
+    # rows print in order as they complete.
+    with multiprocessing.Pool(max(1, args.jobs)) as pool:
+        results = [pool.map_async(run_one, row) for row in rows]
+        for log, result in zip(args.logs, results):
+            name = os.path.basename(log).split("-corrected")[0].split(".")[0]
+            print("| " + " | ".join([name] + result.get()) + " |", flush=True)
 
 
 def main():
@@ -200,6 +212,8 @@ def main():
     r.add_argument("--cases", default=",".join(CASES))
     r.add_argument("--seeds", default="1")
     r.add_argument("--out", default="/tmp/cairn-harness")
+    r.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                   help="cells run at once (default: one per core)")
     a = p.parse_args()
     if a.command == "make":
         make(a.log, a.case, a.out, a.seed)

@@ -8,6 +8,7 @@
 #include <iomanip>
 #include <memory>
 #include <ostream>
+#include <sstream>
 #include <utility>
 
 namespace cairn::frontend {
@@ -114,15 +115,14 @@ class GraphBuilder {
     if (!progress_ || Since(last_report_) < o_.progress_interval_s) return;
     last_report_ = Clock::now();
     const MapperStats& st = res_.stats;
-    const auto saved_flags = progress_->flags();
-    const auto saved_precision = progress_->precision();
-    *progress_ << "map: scan " << scans_done << " of " << log_.scans.size() << ", "
+    // Formatted apart, so that the caller's stream keeps its own settings.
+    std::ostringstream line;
+    line << "map: scan " << scans_done << " of " << log_.scans.size() << ", "
                << res_.keyframes.size() << " keyframes, " << st.loop_accepted << " loop closures, "
                << st.recoveries << " recoveries, " << st.tracking_failures
                << " fell back to odometry, " << std::fixed
                << std::setprecision(1) << Since(start_) << " s\n";
-    progress_->flags(saved_flags);
-    progress_->precision(saved_precision);
+    *progress_ << line.str();
   }
 
   SE2 KeyframePose(size_t k) const { return ToSE2(graph_.vertex(static_cast<int64_t>(k)).x); }
@@ -174,10 +174,11 @@ class GraphBuilder {
     const SE2 predicted = current_ * step;
     std::optional<IcpResult> match;
     bool doubt = false;
-    // The previous scan's refused wide pose, carried on by the odometry.
-    if (hypothesis_) hypothesis_ = *hypothesis_ * step;
-    if (cloud.size() >= 20) match = MatchOrRecover(cloud, predicted, &doubt);
-    else hypothesis_.reset();
+    // The previous scan's refused wide pose, carried on by the odometry;
+    // only this scan may second it.
+    std::optional<SE2> previous = std::exchange(hypothesis_, std::nullopt);
+    if (previous) previous = *previous * step;
+    if (cloud.size() >= 20) match = MatchOrRecover(cloud, predicted, previous, &doubt);
     if (match) {
       current_ = match->pose;
       *info = ToBodyFrame(match->information, match->pose);
@@ -243,16 +244,9 @@ class GraphBuilder {
   // *doubt: the scan disagreed with the odometry (its best pose at the
   // window's edge, or a far better fit elsewhere) and nothing confirmed
   // either.
-  std::optional<IcpResult> MatchOrRecover(const PointCloud& cloud, const SE2& predicted, bool* doubt) {
-    // Only the scan right after the one that refused it may second it.
-    const std::optional<SE2> previous = std::exchange(hypothesis_, std::nullopt);
-    CorrelativeOptions co;
-    co.linear_window = Window(recent_shift_, o_.track_linear_window);
-    co.angular_window = Window(recent_turn_, o_.track_angular_window);
-    // The pull to the prediction as strong per metre and per degree as in
-    // the usual window: along a corridor it is what holds the pose.
-    co.penalty_linear_window = o_.track_linear_window;
-    co.penalty_angular_window = o_.track_angular_window;
+  std::optional<IcpResult> MatchOrRecover(const PointCloud& cloud, const SE2& predicted,
+                                          const std::optional<SE2>& previous, bool* doubt) {
+    CorrelativeOptions co = TrackingSearch();
     CorrelativeResult cr;
     const IcpResult narrow = MatchLocalMap(cloud, predicted, co, &cr);
     const SE2 moved = predicted.Between(cr.pose);
@@ -305,16 +299,25 @@ class GraphBuilder {
     return AlongTheRidge(cloud, predicted, wide);
   }
 
+  // The tracking window, widened as the odometry's recent errors require,
+  // with the pull to the prediction as strong per metre and per degree as
+  // in the usual window: along a corridor it is what holds the pose.
+  CorrelativeOptions TrackingSearch() const {
+    CorrelativeOptions co;
+    co.linear_window = Window(recent_shift_, o_.track_linear_window);
+    co.angular_window = Window(recent_turn_, o_.track_angular_window);
+    co.penalty_linear_window = o_.track_linear_window;
+    co.penalty_angular_window = o_.track_angular_window;
+    return co;
+  }
+
   // The wide search settles the heading; along a corridor it cannot settle
   // the place, and its best pose may lie metres along it. Searched again at
   // that heading around the predicted position, a pose that fits as well is
   // the one the odometry supports.
   IcpResult AlongTheRidge(const PointCloud& cloud, const SE2& predicted, const IcpResult& wide) {
-    CorrelativeOptions co;
-    co.linear_window = Window(recent_shift_, o_.track_linear_window);
-    co.angular_window = 0.087;
-    co.penalty_linear_window = o_.track_linear_window;
-    co.penalty_angular_window = o_.track_angular_window;
+    CorrelativeOptions co = TrackingSearch();
+    co.angular_window = 0.087;  // 5 degrees: the heading is the wide search's
     CorrelativeResult cr;
     const SE2 centre(predicted.x(), predicted.y(), wide.pose.theta());
     const IcpResult near = MatchLocalMap(cloud, centre, co, &cr);
@@ -499,7 +502,7 @@ class GraphBuilder {
   std::deque<double> recent_turn_, recent_shift_;  // their distances from the prediction
   bool lost_since_keyframe_ = false;
   bool lost_ = false;  // tracking on odometry alone since a scan disputed it
-  // The last scan's wide pose, refused as ambiguous (at this scan's time).
+  // The last scan's wide pose, refused as ambiguous, for the next to second.
   std::optional<SE2> hypothesis_;
   Clock::time_point start_ = Clock::now(), last_report_ = start_;
   MapResult res_;

@@ -169,10 +169,14 @@ def ate_of(cairn, log, prefix):
                        " (%s fell back)" % fell.group(1) if fell and fell.group(1) != "0" else "")
 
 
+def log_name(log):
+    return os.path.basename(log).split("-corrected")[0].split(".")[0]
+
+
 def run_one(job):
     """One cell: (cairn, the log, case or None for the plain log, seed, out dir)."""
     cairn, log, case, seed, out = job
-    name = os.path.basename(log).split("-corrected")[0].split(".")[0]
+    name = log_name(log)
     if case is None:
         return ate_of(cairn, log, os.path.join(out, name))
     path = os.path.join(out, "%s_%s_%d.log" % (name, case, seed))
@@ -194,8 +198,7 @@ def run(args):
     with multiprocessing.Pool(max(1, args.jobs)) as pool:
         results = [pool.map_async(run_one, row) for row in rows]
         for log, result in zip(args.logs, results):
-            name = os.path.basename(log).split("-corrected")[0].split(".")[0]
-            print("| " + " | ".join([name] + result.get()) + " |", flush=True)
+            print("| " + " | ".join([log_name(log)] + result.get()) + " |", flush=True)
 
 
 def main():

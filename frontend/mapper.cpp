@@ -253,7 +253,10 @@ class GraphBuilder {
     const bool at_edge = std::abs(moved.theta()) > co.angular_window - 2 * co.angular_step ||
                          moved.translation().cwiseAbs().maxCoeff() > co.linear_window - 0.1;
     const bool narrow_good = Good(narrow);
-    if (narrow_good && !at_edge) return narrow;
+    // From a matched pose, a move no wheeled base makes between two scans
+    // is a wrong prediction's local fit (a room's turned twin).
+    const bool implausible = !lost_ && ArcMisfit(current_, narrow.pose) > 0.7;
+    if (narrow_good && !at_edge && !implausible) return narrow;
     ++res_.stats.wide_searches;
     co.linear_window = o_.recovery_linear_window;
     co.angular_window = M_PI;
@@ -264,14 +267,17 @@ class GraphBuilder {
     // lies; one along the best's ridge (a corridor) is not.
     co.runner_up_angle = 0.35;
     co.ridge_share = o_.recovery_ridge_share;
+    // From a pose a match placed, the way the robot went tells a place from
+    // its half-turned twin, which the scan alone cannot.
+    if (!lost_) co.arc_from = current_, co.arc_penalty = o_.recovery_arc_penalty;
     const IcpResult wide = MatchLocalMap(cloud, predicted, co, &cr);
     // The wide pose must beat the narrow one clearly, the more clearly the
     // more right that one looked: repeated rooms and flipped corridors offer
     // wrong poses that fit nearly as well. After a failed match the scan may
     // see much the local map lacks, so the recent median does not apply.
     const bool narrow_ok = Acceptable(narrow);
-    const bool doubted = !narrow_ok || at_edge;
-    const double margin = !narrow_ok ? 0.2 : at_edge ? 0.1 : 0.25;
+    const bool doubted = !narrow_ok || at_edge || implausible;
+    const double margin = !narrow_ok ? 0.2 : at_edge || implausible ? 0.1 : 0.25;
     const bool fits_better = (narrow_ok ? Good(wide) : Acceptable(wide)) &&
                              wide.inlier_fraction >= narrow.inlier_fraction + margin;
     // An ambiguous wide pose is taken when the previous scan's, refused as

@@ -43,6 +43,10 @@ struct MapperOptions {
   // ridge whose score never falls below this share (a corridor's length)
   // does not count as a second hypothesis (CorrelativeOptions::ridge_share).
   double recovery_ridge_share = 0.85;
+  // And the way the robot moved from the last matched pose: a wide pose
+  // whose heading does not fit an arc from there scores up to this share
+  // lower (CorrelativeOptions::arc_penalty; 0: off).
+  double recovery_arc_penalty = 0.4;
   // When the wide search fails too and the scan disputed the odometry (its
   // best pose at the window's edge, or twice the inliers at a wide pose
   // refused as ambiguous), tracking is lost until a match holds again:

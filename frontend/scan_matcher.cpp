@@ -203,6 +203,12 @@ double PenaltyScale(double penalty_window, double window) {
   return std::max(penalty_window > 0 ? penalty_window : window, 1e-6);
 }
 
+double ArcFit(const CorrelativeOptions& o, double theta, const Eigen::Vector2d& t) {
+  if (o.arc_penalty <= 0) return 1;
+  const double misfit = ArcMisfit(o.arc_from, SE2(t.x(), t.y(), theta));
+  return 1 - o.arc_penalty * misfit * misfit;
+}
+
 // Scores every (theta, dx, dy) with theta in `angles` and translations on
 // the map's grid within +-n cells of `center`.
 void Search(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
@@ -234,7 +240,7 @@ void Search(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
         const double dl = (t - guess.translation()).norm() / PenaltyScale(o.penalty_linear_window, o.linear_window);
         const double score = sums[static_cast<size_t>(dy + n) * (2 * n + 1) + dx + n] * inv_n *
                              (1 - o.distance_penalty * std::min(1.0, dl * dl)) *
-                             (1 - o.distance_penalty * std::min(1.0, da * da));
+                             (1 - o.distance_penalty * std::min(1.0, da * da)) * ArcFit(o, theta, t);
         if (score > best->score) *best = {score, theta, t};
       }
   }
@@ -318,7 +324,7 @@ std::vector<Candidate> BranchAndBound(const MatchMap& map, const SearchSpace& sp
       const double da = NormalizeAngle(theta - guess.theta()) / PenaltyScale(o.penalty_angular_window, o.angular_window);
       const double dl = (t - guess.translation()).norm() / PenaltyScale(o.penalty_linear_window, o.linear_window);
       const double score = node.bound * (1 - o.distance_penalty * std::min(1.0, dl * dl)) *
-                           (1 - o.distance_penalty * std::min(1.0, da * da));
+                           (1 - o.distance_penalty * std::min(1.0, da * da)) * ArcFit(o, theta, t);
       if (score >= floor * best) scored.push_back({score, theta, t});
       best = std::max(best, score);
       continue;
@@ -386,6 +392,25 @@ std::pair<Candidate, double> BestAndRunnerUp(const MatchMap& map,
 }
 
 }  // namespace
+
+// On an arc of turn dth the chord leaves at dth/2 (driven backwards, at
+// dth/2 + pi); and a base turns less than a quarter turn between scans, a
+// half turn never.
+double ArcMisfit(const SE2& from, const SE2& to) {
+  const double turn = NormalizeAngle(to.theta() - from.theta());
+  double misfit = std::clamp((std::abs(turn) - M_PI / 2) / (M_PI / 2), 0.0, 1.0);
+  const Eigen::Vector2d local = from.Between(to).translation();
+  const double length = local.norm();
+  constexpr double kShortest = 0.1, kFull = 0.4;  // metres: the way not judged, judged fully
+  if (length > kShortest) {
+    double off = std::abs(NormalizeAngle(std::atan2(local.y(), local.x()) - 0.5 * turn));
+    off = std::min(off, M_PI - off);
+    constexpr double kFullOff = 1.05;  // 60 degrees: a half-turned twin is near 90
+    const double weight = std::min(1.0, (length - kShortest) / (kFull - kShortest));
+    misfit = std::max(misfit, weight * std::min(1.0, off / kFullOff));
+  }
+  return misfit;
+}
 
 CorrelativeResult CorrelativeMatch(const MatchMap& coarse, const MatchMap& fine,
                                    const std::vector<Eigen::Vector2d>& scan, const SE2& guess,

@@ -117,7 +117,20 @@ struct CorrelativeOptions {
   // below this share may be reported lower than it is (tests against a
   // higher ratio decide the same).
   double runner_up_floor = 0.7;
+  // When arc_penalty is positive: the pose the robot was at one scan ago.
+  // A wheeled base moves along an arc, so the way it went (seen from
+  // `arc_from`) lies near half its turn, forwards or backwards; a pose whose
+  // heading does not fit the way it moved (a symmetric place's half-turned
+  // twin) scores up to arc_penalty lower. Short moves say little of the way
+  // and are not judged.
+  SE2 arc_from;
+  double arc_penalty = 0;
 };
+
+// How far the move from `from` to `to` is from what a wheeled base does
+// between two scans: 0 (along an arc, turning under a quarter turn) to 1
+// (the heading does not fit the way it went, or a half turn).
+double ArcMisfit(const SE2& from, const SE2& to);
 
 struct CorrelativeResult {
   SE2 pose;

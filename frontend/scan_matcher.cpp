@@ -203,6 +203,7 @@ double PenaltyScale(double penalty_window, double window) {
   return std::max(penalty_window > 0 ? penalty_window : window, 1e-6);
 }
 
+// The factor on a pose's score for its move from o.arc_from (1 when off).
 double ArcFit(const CorrelativeOptions& o, double theta, const Eigen::Vector2d& t) {
   if (o.arc_penalty <= 0) return 1;
   const double misfit = ArcMisfit(o.arc_from, SE2(t.x(), t.y(), theta));

@@ -287,6 +287,17 @@ class GraphBuilder {
     const bool unambiguous = cr.runner_up_ratio < (doubted ? 0.9 : 0.8);
     const bool seconded = previous && Near(*previous, wide.pose);
     const bool wide_better = fits_better && (unambiguous || seconded);
+    // A second that differs only in place (a corridor's other door) leaves
+    // the heading settled: the place is the prediction's, if a pose at that
+    // heading near it fits as well.
+    const bool heading_settled =
+        fits_better && std::abs(NormalizeAngle(cr.runner_up.theta() - cr.pose.theta())) < 0.17;
+    if (!wide_better && heading_settled) {
+      if (std::optional<IcpResult> near = AtHeading(cloud, predicted, wide, 0.1)) {
+        ++res_.stats.recoveries;
+        return near;
+      }
+    }
     // Below the recent median alone is a reason to look wider, not to drop
     // a match the plain test accepts.
     if (!wide_better) {
@@ -322,13 +333,20 @@ class GraphBuilder {
   // that heading around the predicted position, a pose that fits as well is
   // the one the odometry supports.
   IcpResult AlongTheRidge(const PointCloud& cloud, const SE2& predicted, const IcpResult& wide) {
+    return AtHeading(cloud, predicted, wide, 0.01).value_or(wide);
+  }
+  // The pose at the wide search's heading near the predicted position, when
+  // it fits within `slack` of the wide pose's inlier fraction.
+  std::optional<IcpResult> AtHeading(const PointCloud& cloud, const SE2& predicted,
+                                     const IcpResult& wide, double slack) const {
     CorrelativeOptions co = TrackingSearch();
     co.angular_window = 0.087;  // 5 degrees: the heading is the wide search's
     CorrelativeResult cr;
     const SE2 centre(predicted.x(), predicted.y(), wide.pose.theta());
     const IcpResult near = MatchLocalMap(cloud, centre, co, &cr);
-    const bool as_good = Acceptable(near) && near.inlier_fraction >= wide.inlier_fraction - 0.01;
-    return as_good ? near : wide;
+    const bool as_good = Acceptable(near) && near.inlier_fraction >= wide.inlier_fraction - slack;
+    if (!as_good) return std::nullopt;
+    return near;
   }
 
   IcpResult MatchLocalMap(const PointCloud& cloud, const SE2& predicted, const CorrelativeOptions& co,

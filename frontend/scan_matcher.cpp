@@ -366,15 +366,19 @@ bool OnOneRidge(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan, c
   return true;
 }
 
+struct BestAndSecond {
+  Candidate best, second;  // second: the best when none is distinct
+  double ratio = 1;        // second's score over best's
+};
+
 // The best of the scored poses, and the best of those distinct from it
 // (over the best's score; at most the floor when none reached it).
-std::pair<Candidate, double> BestAndRunnerUp(const MatchMap& map,
-                                             const std::vector<Eigen::Vector2d>& scan,
-                                             std::vector<Candidate> scored,
-                                             const CorrelativeOptions& o) {
+BestAndSecond BestAndRunnerUp(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
+                              std::vector<Candidate> scored, const CorrelativeOptions& o) {
   std::sort(scored.begin(), scored.end(),
             [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
   const Candidate best = scored.empty() ? Candidate{} : scored.front();
+  Candidate second = best;
   double runner_up = 0;
   int ridge_checks = 0;
   for (const Candidate& c : scored) {
@@ -386,10 +390,11 @@ std::pair<Candidate, double> BestAndRunnerUp(const MatchMap& map,
         ridge_checks++ < 50 && OnOneRidge(map, scan, best, c, o.ridge_share))
       continue;
     runner_up = c.score;
+    second = c;
     break;
   }
   const double ratio = best.score > 0 ? runner_up / best.score : 1.0;
-  return {best, o.runner_up_distance > 0 ? std::min(1.0, ratio) : 1.0};
+  return {best, second, o.runner_up_distance > 0 ? std::min(1.0, ratio) : 1.0};
 }
 
 }  // namespace
@@ -404,11 +409,13 @@ double ArcMisfit(const SE2& from, const SE2& to) {
   const double length = local.norm();
   constexpr double kShortest = 0.1, kFull = 0.4;  // metres: the way not judged, judged fully
   if (length > kShortest) {
-    double off = std::abs(NormalizeAngle(std::atan2(local.y(), local.x()) - 0.5 * turn));
-    off = std::min(off, M_PI - off);
+    const double off = std::abs(NormalizeAngle(std::atan2(local.y(), local.x()) - 0.5 * turn));
     constexpr double kFullOff = 1.05;  // 60 degrees: a half-turned twin is near 90
+    // Bases drive backwards too, but seldom: such a move is half a misfit.
+    constexpr double kBackwards = 0.5;
+    const double way = std::min(off / kFullOff, kBackwards + (M_PI - off) / kFullOff);
     const double weight = std::min(1.0, (length - kShortest) / (kFull - kShortest));
-    misfit = std::max(misfit, weight * std::min(1.0, off / kFullOff));
+    misfit = std::max(misfit, weight * std::min(1.0, way));
   }
   return misfit;
 }
@@ -425,15 +432,17 @@ CorrelativeResult CorrelativeMatch(const MatchMap& coarse, const MatchMap& fine,
   const SearchSpace space = MakeSpace(coarse, scan, angles, guess.translation(), n);
   // Without a runner-up to find, only the best matters: nothing below it is split.
   const double floor = o.runner_up_distance > 0 ? o.runner_up_floor : 1.0;
-  const auto [coarse_best, ratio] =
+  const BestAndSecond coarse_best =
       BestAndRunnerUp(coarse, scan, BranchAndBound(coarse, space, guess, o, floor), o);
-  best = coarse_best;
+  best = coarse_best.best;
   angles.clear();
   for (int k = -2; k <= 2; ++k) angles.push_back(best.theta + k * 0.5 * o.angular_step);
   const int nf = static_cast<int>(std::ceil(coarse.resolution() / fine.resolution()));
   Candidate fine_best;
   Search(fine, scan, angles, best.t, nf, guess, o, &fine_best);
-  return {SE2(fine_best.t.x(), fine_best.t.y(), fine_best.theta), fine_best.score, ratio};
+  const Candidate& second = coarse_best.second;
+  return {SE2(fine_best.t.x(), fine_best.t.y(), fine_best.theta), fine_best.score,
+          coarse_best.ratio, SE2(second.t.x(), second.t.y(), second.theta)};
 }
 
 namespace {

@@ -119,17 +119,18 @@ struct CorrelativeOptions {
   double runner_up_floor = 0.7;
   // When arc_penalty is positive: the pose the robot was at one scan ago.
   // A wheeled base moves along an arc, so the way it went (seen from
-  // `arc_from`) lies near half its turn, forwards or backwards; a pose whose
+  // `arc_from`) lies near half its turn, seldom backwards; a pose whose
   // heading does not fit the way it moved (a symmetric place's half-turned
-  // twin) scores up to arc_penalty lower. Short moves say little of the way
-  // and are not judged.
+  // twin) scores up to arc_penalty lower (ArcMisfit). Short moves say little
+  // of the way and are judged only by their turn.
   SE2 arc_from;
   double arc_penalty = 0;
 };
 
 // How far the move from `from` to `to` is from what a wheeled base does
-// between two scans: 0 (along an arc, turning under a quarter turn) to 1
-// (the heading does not fit the way it went, or a half turn).
+// between two scans: 0 (forwards along an arc, turning under a quarter
+// turn), 0.5 (backwards along one), up to 1 (the heading does not fit the
+// way it went, or a half turn).
 double ArcMisfit(const SE2& from, const SE2& to);
 
 struct CorrelativeResult {
@@ -138,6 +139,8 @@ struct CorrelativeResult {
   // Coarse score of the best pose runner_up_distance away, over the best's
   // (1 when not computed).
   double runner_up_ratio = 1;
+  // That runner-up's coarse pose (the best's when there is none).
+  SE2 runner_up;
 };
 
 // The best pose on `coarse` (translations on its grid, angular step x2),

@@ -203,18 +203,61 @@ double PenaltyScale(double penalty_window, double window) {
   return std::max(penalty_window > 0 ? penalty_window : window, 1e-6);
 }
 
-// The factor on a pose's score for its move from o.arc_from (1 when off).
-double ArcFit(const CorrelativeOptions& o, double theta, const Eigen::Vector2d& t) {
-  if (o.arc_penalty <= 0) return 1;
-  const double misfit = ArcMisfit(o.arc_from, SE2(t.x(), t.y(), theta));
-  return 1 - o.arc_penalty * misfit * misfit;
+// ArcMisfit of a move whose turn and chord (in the start's frame) are known.
+double MoveMisfit(double turn, const Eigen::Vector2d& local) {
+  double misfit = std::clamp((std::abs(turn) - M_PI / 2) / (M_PI / 2), 0.0, 1.0);
+  const double length = local.norm();
+  constexpr double kShortest = 0.1, kFull = 0.4;  // metres: the way not judged, judged fully
+  if (length > kShortest) {
+    const double off = std::abs(NormalizeAngle(std::atan2(local.y(), local.x()) - 0.5 * turn));
+    constexpr double kFullOff = 1.05;  // 60 degrees: a half-turned twin is near 90
+    // Bases drive backwards too, but seldom: such a move is half a misfit.
+    constexpr double kBackwards = 0.5;
+    const double way = std::min(off / kFullOff, kBackwards + (M_PI - off) / kFullOff);
+    const double weight = std::min(1.0, (length - kShortest) / (kFull - kShortest));
+    misfit = std::max(misfit, weight * std::min(1.0, way));
+  }
+  return misfit;
 }
+
+// Moves from one pose judged by ArcMisfit, the pose's inverse taken once
+// for the many poses a search scores.
+class ArcJudge {
+ public:
+  explicit ArcJudge(const SE2& from)
+      : inverse_(from.Inverse()), rotation_(inverse_.rotation()), theta_(from.theta()) {}
+  double Misfit(double theta, const Eigen::Vector2d& t) const {
+    return MoveMisfit(NormalizeAngle(theta - theta_), inverse_.translation() + rotation_ * t);
+  }
+
+ private:
+  SE2 inverse_;
+  Eigen::Matrix2d rotation_;
+  double theta_;
+};
+
+// The factor on a pose's score for its move from CorrelativeOptions::arc_from
+// (1 when its penalty is off).
+class ArcFit {
+ public:
+  explicit ArcFit(const CorrelativeOptions& o) : penalty_(o.arc_penalty), judge_(o.arc_from) {}
+  double operator()(double theta, const Eigen::Vector2d& t) const {
+    if (penalty_ <= 0) return 1;
+    const double misfit = judge_.Misfit(theta, t);
+    return 1 - penalty_ * misfit * misfit;
+  }
+
+ private:
+  double penalty_;
+  ArcJudge judge_;
+};
 
 // Scores every (theta, dx, dy) with theta in `angles` and translations on
 // the map's grid within +-n cells of `center`.
 void Search(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
             const std::vector<double>& angles, const Eigen::Vector2d& center, int n,
             const SE2& guess, const CorrelativeOptions& o, Candidate* best) {
+  const ArcFit arc_fit(o);
   const double res = map.resolution();
   std::vector<int> cx(scan.size()), cy(scan.size());
   const double inv_n = 1.0 / std::max<size_t>(1, scan.size());
@@ -241,7 +284,7 @@ void Search(const MatchMap& map, const std::vector<Eigen::Vector2d>& scan,
         const double dl = (t - guess.translation()).norm() / PenaltyScale(o.penalty_linear_window, o.linear_window);
         const double score = sums[static_cast<size_t>(dy + n) * (2 * n + 1) + dx + n] * inv_n *
                              (1 - o.distance_penalty * std::min(1.0, dl * dl)) *
-                             (1 - o.distance_penalty * std::min(1.0, da * da)) * ArcFit(o, theta, t);
+                             (1 - o.distance_penalty * std::min(1.0, da * da)) * arc_fit(theta, t);
         if (score > best->score) *best = {score, theta, t};
       }
   }
@@ -293,6 +336,7 @@ struct Node {
 // times the best at that moment (the best among them), for the runner-up.
 std::vector<Candidate> BranchAndBound(const MatchMap& map, const SearchSpace& sp, const SE2& guess,
                                       const CorrelativeOptions& o, double floor) {
+  const ArcFit arc_fit(o);
   const int span = 2 * sp.n + 1;
   int top = 0;
   while (top < 4 && (span >> top) > 4) ++top;
@@ -325,7 +369,7 @@ std::vector<Candidate> BranchAndBound(const MatchMap& map, const SearchSpace& sp
       const double da = NormalizeAngle(theta - guess.theta()) / PenaltyScale(o.penalty_angular_window, o.angular_window);
       const double dl = (t - guess.translation()).norm() / PenaltyScale(o.penalty_linear_window, o.linear_window);
       const double score = node.bound * (1 - o.distance_penalty * std::min(1.0, dl * dl)) *
-                           (1 - o.distance_penalty * std::min(1.0, da * da)) * ArcFit(o, theta, t);
+                           (1 - o.distance_penalty * std::min(1.0, da * da)) * arc_fit(theta, t);
       if (score >= floor * best) scored.push_back({score, theta, t});
       best = std::max(best, score);
       continue;
@@ -403,21 +447,7 @@ BestAndSecond BestAndRunnerUp(const MatchMap& map, const std::vector<Eigen::Vect
 // dth/2 + pi); and a base turns less than a quarter turn between scans, a
 // half turn never.
 double ArcMisfit(const SE2& from, const SE2& to) {
-  const double turn = NormalizeAngle(to.theta() - from.theta());
-  double misfit = std::clamp((std::abs(turn) - M_PI / 2) / (M_PI / 2), 0.0, 1.0);
-  const Eigen::Vector2d local = from.Between(to).translation();
-  const double length = local.norm();
-  constexpr double kShortest = 0.1, kFull = 0.4;  // metres: the way not judged, judged fully
-  if (length > kShortest) {
-    const double off = std::abs(NormalizeAngle(std::atan2(local.y(), local.x()) - 0.5 * turn));
-    constexpr double kFullOff = 1.05;  // 60 degrees: a half-turned twin is near 90
-    // Bases drive backwards too, but seldom: such a move is half a misfit.
-    constexpr double kBackwards = 0.5;
-    const double way = std::min(off / kFullOff, kBackwards + (M_PI - off) / kFullOff);
-    const double weight = std::min(1.0, (length - kShortest) / (kFull - kShortest));
-    misfit = std::max(misfit, weight * std::min(1.0, way));
-  }
-  return misfit;
+  return ArcJudge(from).Misfit(to.theta(), to.translation());
 }
 
 CorrelativeResult CorrelativeMatch(const MatchMap& coarse, const MatchMap& fine,

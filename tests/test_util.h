@@ -76,3 +76,13 @@ inline double JsonNumber(const std::string& json, const std::string& key) {
                    << " (the shared datasets are not beside this clone)";  \
     }                                                                      \
   } while (0)
+
+// Sanitizer builds run every suite's shorter tests; the longest numerical
+// agreement tests (many solves of code those shorter tests already run)
+// skip there and run in Release builds.
+#if defined(__SANITIZE_ADDRESS__)
+#define CAIRN_LONG_NUMERICAL_TEST() \
+  GTEST_SKIP() << "a long numerical agreement test: Release builds run it"
+#else
+#define CAIRN_LONG_NUMERICAL_TEST() static_cast<void>(0)
+#endif

@@ -187,6 +187,7 @@ GraphSolver Solver(bool gn) {
 }
 
 TEST(Gnc, RejectsAliasedGroupsWithEitherSolver) {
+  CAIRN_LONG_NUMERICAL_TEST();
   for (int dim : {2, 3})
     for (uint64_t seed : {21, 22}) {
       const Simulation sim = Simulated(dim, dim == 2 ? 600 : 400, seed);
@@ -217,6 +218,7 @@ TEST(Gnc, RejectsAliasedGroupsWithEitherSolver) {
 }
 
 TEST(Gnc, NinetyPercentRandomWrongLoopClosures) {
+  CAIRN_LONG_NUMERICAL_TEST();
   // As many wrong loop closures as 0.9 times the good ones... and 9 times.
   for (uint64_t seed : {31, 32}) {
     const Simulation sim = Simulated(2, 500, seed);

@@ -100,6 +100,7 @@ TEST(Dcs, ParsesAndPrints) {
 // IRLS (Gauss-Newton reweighting by rho') and Ceres (rho with its
 // curvature correction) minimise the same robust cost: same optimum.
 TEST(RobustKernels, GaussNewtonAndCeresAgreeWithEveryKernel) {
+  CAIRN_LONG_NUMERICAL_TEST();
   for (int dim : {2, 3}) {
     const Simulation sim = Simulated(dim, dim == 2 ? 300 : 250, 5, 5);
     for (const char* kernel : {"huber:1", "cauchy:1", "dcs:1"}) {

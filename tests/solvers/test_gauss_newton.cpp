@@ -19,6 +19,7 @@
 #include "cairn/solvers/linear_solver.h"
 #include "cairn/graph/pose_difference.h"
 #include "cairn/graph/simulate.h"
+#include "test_util.h"
 
 namespace cairn {
 namespace {
@@ -324,6 +325,7 @@ namespace {
 class ChordStepsAtDefaults : public ::testing::TestWithParam<int> {};
 
 TEST_P(ChordStepsAtDefaults, NeverStopTheSolveEarly) {
+  CAIRN_LONG_NUMERICAL_TEST();
   for (uint64_t seed : {1, 2, 3, 4}) {
     SimulationOptions so;
     so.dimension = GetParam();
@@ -382,6 +384,7 @@ class OtherLinearSolvers
     : public ::testing::TestWithParam<std::tuple<int, CholeskyKind>> {};
 
 TEST_P(OtherLinearSolvers, ReachTheCholeskyOptimum) {
+  CAIRN_LONG_NUMERICAL_TEST();
   const auto [dimension, kind] = GetParam();
   for (uint64_t seed : {5, 6}) {
     SimulationOptions so;

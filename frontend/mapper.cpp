@@ -143,6 +143,7 @@ class GraphBuilder {
       return;
     }
     Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
+    next_scan_ = i + 1 < log_.scans.size() ? &log_.scans[i + 1] : nullptr;
     const bool tracked = Track(scan, cloud, &info);
 
     const size_t last = res_.keyframes.size() - 1;
@@ -258,19 +259,7 @@ class GraphBuilder {
     const bool implausible = !lost_ && ArcMisfit(current_, narrow.pose) > 0.7;
     if (narrow_good && !at_edge && !implausible) return narrow;
     ++res_.stats.wide_searches;
-    co.linear_window = o_.recovery_linear_window;
-    co.angular_window = M_PI;
-    co.distance_penalty = 0.02;  // the prediction is what is in doubt
-    co.penalty_linear_window = co.penalty_angular_window = 0;
-    co.runner_up_distance = 0.5;
-    // A pose turned 20 degrees or more is another hypothesis wherever it
-    // lies; one along the best's ridge (a corridor) is not.
-    co.runner_up_angle = 0.35;
-    co.ridge_share = o_.recovery_ridge_share;
-    // From a pose a match placed, the way the robot went tells a place from
-    // its half-turned twin, which the scan alone cannot.
-    if (!lost_) co.arc_from = current_, co.arc_penalty = o_.recovery_arc_penalty;
-    const IcpResult wide = MatchLocalMap(cloud, predicted, co, &cr);
+    const IcpResult wide = MatchLocalMap(cloud, predicted, WideSearch(), &cr);
     // The wide pose must beat the narrow one clearly, the more clearly the
     // more right that one looked: repeated rooms and flipped corridors offer
     // wrong poses that fit nearly as well. After a failed match the scan may
@@ -287,6 +276,17 @@ class GraphBuilder {
     const bool unambiguous = cr.runner_up_ratio < (doubted ? 0.9 : 0.8);
     const bool seconded = previous && Near(*previous, wide.pose);
     const bool wide_better = fits_better && (unambiguous || seconded);
+    // A second turned from the best: the next scan, carried to each by the
+    // odometry, sees what this one's field of view left out.
+    if (fits_better && cr.runner_up_ratio >= 0.6 &&
+        std::abs(NormalizeAngle(cr.runner_up.theta() - cr.pose.theta())) >= 0.17) {
+      IcpResult second;
+      const Ahead ahead = NextScanDecides(wide, cloud, cr.runner_up, &second);
+      if (ahead != Ahead::kUndecided) {
+        ++res_.stats.recoveries;
+        return ahead == Ahead::kSecond ? second : AlongTheRidge(cloud, predicted, wide);
+      }
+    }
     // A second that differs only in place (a corridor's other door) leaves
     // the heading settled: the place is the prediction's, if a pose at that
     // heading near it fits as well.
@@ -314,6 +314,56 @@ class GraphBuilder {
     }
     ++res_.stats.recoveries;
     return AlongTheRidge(cloud, predicted, wide);
+  }
+
+  enum class Ahead { kUndecided, kBest, kSecond };
+  // Which of the wide search's best pose and its runner-up (*second, once
+  // refined) the next scan fits: each pose's inliers plus the next scan's,
+  // matched from that pose carried on by the odometry, one clearly above
+  // the other's. A runner-up that does not fit at all leaves the best.
+  Ahead NextScanDecides(const IcpResult& best, const PointCloud& cloud, const SE2& runner_up,
+                        IcpResult* second) const {
+    CorrelativeOptions co = TrackingSearch();
+    co.angular_window = 0.087;
+    co.linear_window = 0.3;
+    CorrelativeResult cr;
+    *second = MatchLocalMap(cloud, runner_up, co, &cr);
+    if (!Acceptable(*second)) return Ahead::kBest;
+    if (!next_scan_) return Ahead::kUndecided;
+    const PointCloud next = ScanToCloud(*next_scan_, o_.min_range, match_max_);
+    if (next.size() < 20) return Ahead::kUndecided;
+    const double scale = OdometryScale();
+    const SE2& inc = next_scan_->odometry_increment;
+    const SE2 step(scale * inc.x(), scale * inc.y(), inc.theta());
+    auto fit = [&](const IcpResult& now) {
+      CorrelativeResult cn;
+      const IcpResult then = MatchLocalMap(next, now.pose * step, TrackingSearch(), &cn);
+      return now.inlier_fraction + (Acceptable(then) ? then.inlier_fraction : 0.0);
+    };
+    const double best_fit = fit(best), second_fit = fit(*second);
+    constexpr double kClearly = 0.1;
+    if (second_fit > best_fit + kClearly) return Ahead::kSecond;
+    if (best_fit > second_fit + kClearly) return Ahead::kBest;
+    return Ahead::kUndecided;
+  }
+
+  // The wide search: every heading, +- recovery_linear_window, with a
+  // runner-up to judge ambiguity by.
+  CorrelativeOptions WideSearch() const {
+    CorrelativeOptions co;
+    co.linear_window = o_.recovery_linear_window;
+    co.angular_window = M_PI;
+    co.distance_penalty = 0.02;  // the prediction is what is in doubt
+    co.penalty_linear_window = co.penalty_angular_window = 0;
+    co.runner_up_distance = 0.5;
+    // A pose turned 20 degrees or more is another hypothesis wherever it
+    // lies; one along the best's ridge (a corridor) is not.
+    co.runner_up_angle = 0.35;
+    co.ridge_share = o_.recovery_ridge_share;
+    // From a pose a match placed, the way the robot went tells a place from
+    // its half-turned twin, which the scan alone cannot.
+    if (!lost_) co.arc_from = current_, co.arc_penalty = o_.recovery_arc_penalty;
+    return co;
   }
 
   // The tracking window, widened as the odometry's recent errors require,
@@ -528,6 +578,7 @@ class GraphBuilder {
   bool lost_ = false;  // tracking on odometry alone since a scan disputed it
   // The last scan's wide pose, refused as ambiguous, for the next to second.
   std::optional<SE2> hypothesis_;
+  const LaserScan* next_scan_ = nullptr;  // the one after the scan being tracked
   Clock::time_point start_ = Clock::now(), last_report_ = start_;
   MapResult res_;
   PoseGraph& graph_;

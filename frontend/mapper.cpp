@@ -301,6 +301,7 @@ class GraphBuilder {
     // Below the recent median alone is a reason to look wider, not to drop
     // a match the plain test accepts.
     if (!wide_better) {
+      if (narrow_ok && (at_edge || implausible)) return MostPlausible(cloud, predicted, narrow, wide, cr);
       if (Acceptable(narrow)) return narrow;
       // The scan disputes the odometry when its best pose lies at the
       // window's edge, or when it fits far better somewhere the ambiguity
@@ -316,6 +317,56 @@ class GraphBuilder {
     return AlongTheRidge(cloud, predicted, wide);
   }
 
+  // A doubted narrow match (at the window's edge, or a move no base makes)
+  // that the wide search did not beat clearly: of it, the wide pose and the
+  // wide search's runner-up, the one whose fit, discounted by its move's
+  // misfit as the wide search discounts, is highest. Near-ties go to the
+  // pose nearer the prediction: among a corridor's places and a room's
+  // turned twins, the odometry's vote is the one left. An alternative must
+  // be a move a base makes: one merely less wrong than the narrow match is
+  // no reason to leave it.
+  IcpResult MostPlausible(const PointCloud& cloud, const SE2& predicted, const IcpResult& narrow,
+                          const IcpResult& wide, const CorrelativeResult& cr) {
+    auto misfit = [&](const IcpResult& r) { return lost_ ? 0.0 : ArcMisfit(current_, r.pose); };
+    constexpr double kPlausible = 0.3;
+    std::vector<IcpResult> candidates{narrow};
+    auto consider = [&](const IcpResult& r) {
+      if (Acceptable(r) && misfit(r) <= kPlausible) candidates.push_back(r);
+    };
+    consider(wide);
+    if (cr.runner_up_ratio > 0) consider(RefineNear(cloud, cr.runner_up));
+    auto plausible_fit = [&](const IcpResult& r) {
+      const double m = misfit(r);
+      return r.inlier_fraction * (1 - o_.recovery_arc_penalty * m * m);
+    };
+    auto from_prediction = [&](const IcpResult& r) {
+      const SE2 d = predicted.Between(r.pose);
+      return d.translation().norm() / 0.3 + std::abs(d.theta()) / 0.17;  // in odometry steps' errors
+    };
+    double top = 0;
+    for (const IcpResult& r : candidates) top = std::max(top, plausible_fit(r));
+    constexpr double kTie = 0.05;
+    size_t chosen = 0;
+    for (size_t k = 1; k < candidates.size(); ++k) {
+      const bool tied = plausible_fit(candidates[k]) >= top - kTie;
+      const bool chosen_tied = plausible_fit(candidates[chosen]) >= top - kTie;
+      if (tied && (!chosen_tied || from_prediction(candidates[k]) < from_prediction(candidates[chosen])))
+        chosen = k;
+    }
+    if (chosen != 0) ++res_.stats.recoveries;
+    return candidates[chosen];
+  }
+
+  // The match near `pose` (+- 5 degrees, +- 0.3 m): a search's coarse
+  // candidate, refined.
+  IcpResult RefineNear(const PointCloud& cloud, const SE2& pose) const {
+    CorrelativeOptions co = TrackingSearch();
+    co.angular_window = 0.087;
+    co.linear_window = 0.3;
+    CorrelativeResult cr;
+    return MatchLocalMap(cloud, pose, co, &cr);
+  }
+
   enum class Ahead { kUndecided, kBest, kSecond };
   // Which of the wide search's best pose and its runner-up (*second, once
   // refined) the next scan fits: each pose's inliers plus the next scan's,
@@ -323,11 +374,7 @@ class GraphBuilder {
   // the other's. A runner-up that does not fit at all leaves the best.
   Ahead NextScanDecides(const IcpResult& best, const PointCloud& cloud, const SE2& runner_up,
                         IcpResult* second) const {
-    CorrelativeOptions co = TrackingSearch();
-    co.angular_window = 0.087;
-    co.linear_window = 0.3;
-    CorrelativeResult cr;
-    *second = MatchLocalMap(cloud, runner_up, co, &cr);
+    *second = RefineNear(cloud, runner_up);
     if (!Acceptable(*second)) return Ahead::kBest;
     if (!next_scan_) return Ahead::kUndecided;
     const PointCloud next = ScanToCloud(*next_scan_, o_.min_range, match_max_);

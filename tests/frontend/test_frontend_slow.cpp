@@ -136,6 +136,20 @@ TEST(HarnessEndToEnd, GlitchesNextToTheirTwins) {
   }
 }
 
+// csail with its odometry's error three times larger: narrow matches at the
+// window's edge, or moves no base makes (a corridor's other place 1.2-1.9 m
+// along, at scans 200 and 325), were kept when the wide search offered no
+// clearly better pose, though its best or runner-up fitted as well from a
+// plausible move. Taking the most plausible of them: 20.3 m -> 0.54 m (the
+// rest is one scan near the start the odometry places 22 degrees off, which
+// no loop closure reaches: the 0.15 m aim is not met yet).
+TEST(HarnessEndToEnd, CsailWithThreeTimesTheOdometryNoise) {
+  const double ate = HarnessAte("csail", "noise3", 1);
+  if (ate == -1) GTEST_SKIP() << "dataset not found: csail-corrected.log.gz";
+  EXPECT_GT(ate, 0);
+  EXPECT_LE(ate, 1.0);
+}
+
 TEST(HarnessEndToEnd, AcesWithEveryOtherScanDropped) {
   const double ate = HarnessAte("aces", "skip", 1);
   if (ate == -1) GTEST_SKIP() << "dataset not found: aces-corrected.log.gz";

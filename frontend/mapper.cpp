@@ -1,4 +1,5 @@
 #include "cairn/frontend/mapper.h"
+#include "cairn/frontend/occupancy_grid.h"
 
 #include <algorithm>
 #include <chrono>
@@ -6,6 +7,7 @@
 #include <deque>
 #include <optional>
 #include <iomanip>
+#include <limits>
 #include <memory>
 #include <ostream>
 #include <sstream>
@@ -77,6 +79,27 @@ bool VerifyLoopClosure(const PointCloud& submap, const PointCloud& query, const 
 }
 
 namespace {
+
+// The share of the cloud's points, seen from `pose`, that land in space the
+// grid saw free: a cell cleared by three beams or more and never hit, with
+// no hit in the cells around it either (a point on a wall may fall a cell
+// short of it).
+double ContradictedShare(const OccupancyGrid& grid, const PointCloud& cloud, const SE2& pose) {
+  constexpr float kFree = -1.0f;  // three misses (-0.4 each) and no hit
+  auto occupied_near = [&](int cx, int cy) {
+    for (int y = std::max(0, cy - 1); y <= std::min(grid.height() - 1, cy + 1); ++y)
+      for (int x = std::max(0, cx - 1); x <= std::min(grid.width() - 1, cx + 1); ++x)
+        if (grid.LogOdds(x, y) > 0) return true;
+    return false;
+  };
+  size_t contradicted = 0;
+  for (const Eigen::Vector2d& p : cloud.points) {
+    int cx, cy;
+    if (grid.Cell(pose * p, &cx, &cy) && grid.LogOdds(cx, cy) < kFree && !occupied_near(cx, cy))
+      ++contradicted;
+  }
+  return cloud.size() ? static_cast<double>(contradicted) / cloud.size() : 0.0;
+}
 
 // BuildPoseGraph's state as it walks the log, one method per stage:
 // tracking each scan, keyframes, loop closures, optimisation.
@@ -367,15 +390,49 @@ class GraphBuilder {
     return MatchLocalMap(cloud, pose, co, &cr);
   }
 
+  // The space the local map's keyframes saw, as an occupancy grid of 10 cm
+  // cells: each keyframe's beams cleared the cells up to their hits.
+  OccupancyGrid LocalFreeSpace() const {
+    Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+    Eigen::Vector2d hi = -lo;
+    for (size_t k : local_keyframes_) {
+      const SE2 x = KeyframePose(k);
+      lo = lo.cwiseMin(x.translation()), hi = hi.cwiseMax(x.translation());
+      for (const Eigen::Vector2d& p : res_.keyframes[k].cloud.points)
+        lo = lo.cwiseMin(x * p), hi = hi.cwiseMax(x * p);
+    }
+    GridOptions go;
+    go.resolution = 0.1;
+    go.max_wall_gap = 0;  // walls only where a beam ended
+    OccupancyGrid grid(lo.array() - 1, hi.array() + 1, go);
+    for (size_t k : local_keyframes_) {
+      const SE2 x = KeyframePose(k);
+      for (const Eigen::Vector2d& p : res_.keyframes[k].cloud.points)
+        grid.AddBeam(x.translation(), x * p, true);
+    }
+    return grid;
+  }
+
   enum class Ahead { kUndecided, kBest, kSecond };
   // Which of the wide search's best pose and its runner-up (*second, once
-  // refined) the next scan fits: each pose's inliers plus the next scan's,
-  // matched from that pose carried on by the odometry, one clearly above
-  // the other's. A runner-up that does not fit at all leaves the best.
+  // refined) to take. First, free space: a pose whose scan puts walls where
+  // the local map's keyframes saw through (ContradictedShare) is the twin.
+  // A scan that looks into new space fits the local map worse than a
+  // twin's that looks back at the known part, so fit alone is biased
+  // towards the twin; free space is not. Then the next scan: each pose's
+  // inliers plus the next scan's, matched from that pose carried on by
+  // the odometry, one clearly above the other's. A runner-up that does
+  // not fit at all leaves the best.
   Ahead NextScanDecides(const IcpResult& best, const PointCloud& cloud, const SE2& runner_up,
                         IcpResult* second) const {
     *second = RefineNear(cloud, runner_up);
     if (!Acceptable(*second)) return Ahead::kBest;
+    const OccupancyGrid free_space = LocalFreeSpace();
+    const double best_contradicted = ContradictedShare(free_space, cloud, best.pose);
+    const double second_contradicted = ContradictedShare(free_space, cloud, second->pose);
+    constexpr double kContradicted = 0.1;
+    if (best_contradicted >= second_contradicted + kContradicted) return Ahead::kSecond;
+    if (second_contradicted >= best_contradicted + kContradicted) return Ahead::kBest;
     if (!next_scan_) return Ahead::kUndecided;
     const PointCloud next = ScanToCloud(*next_scan_, o_.min_range, match_max_);
     if (next.size() < 20) return Ahead::kUndecided;
@@ -593,6 +650,7 @@ class GraphBuilder {
       if (!res_.keyframes[k].lost) use.push_back(k);
     if (use.empty())
       for (size_t k = K; k-- > oldest && use.size() < n;) use.push_back(k);
+    local_keyframes_.assign(use.rbegin(), use.rend());
     // Oldest first, as Downsample keeps the first point of each cell.
     for (auto it = use.rbegin(); it != use.rend(); ++it)
       world.Append(res_.keyframes[*it].cloud, KeyframePose(*it));
@@ -626,6 +684,7 @@ class GraphBuilder {
   // The last scan's wide pose, refused as ambiguous, for the next to second.
   std::optional<SE2> hypothesis_;
   const LaserScan* next_scan_ = nullptr;  // the one after the scan being tracked
+  std::vector<size_t> local_keyframes_;  // the local map's, oldest first
   Clock::time_point start_ = Clock::now(), last_report_ = start_;
   MapResult res_;
   PoseGraph& graph_;

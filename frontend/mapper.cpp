@@ -390,12 +390,12 @@ class GraphBuilder {
     return MatchLocalMap(cloud, pose, co, &cr);
   }
 
-  // The space the local map's keyframes saw, as an occupancy grid of 10 cm
-  // cells: each keyframe's beams cleared the cells up to their hits.
-  OccupancyGrid LocalFreeSpace() const {
+  // The space these keyframes saw, as an occupancy grid of 10 cm cells:
+  // each keyframe's beams cleared the cells up to their hits.
+  OccupancyGrid FreeSpace(const std::vector<size_t>& keyframes) const {
     Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
     Eigen::Vector2d hi = -lo;
-    for (size_t k : local_keyframes_) {
+    for (size_t k : keyframes) {
       const SE2 x = KeyframePose(k);
       lo = lo.cwiseMin(x.translation()), hi = hi.cwiseMax(x.translation());
       for (const Eigen::Vector2d& p : res_.keyframes[k].cloud.points)
@@ -405,7 +405,7 @@ class GraphBuilder {
     go.resolution = 0.1;
     go.max_wall_gap = 0;  // walls only where a beam ended
     OccupancyGrid grid(lo.array() - 1, hi.array() + 1, go);
-    for (size_t k : local_keyframes_) {
+    for (size_t k : keyframes) {
       const SE2 x = KeyframePose(k);
       for (const Eigen::Vector2d& p : res_.keyframes[k].cloud.points)
         grid.AddBeam(x.translation(), x * p, true);
@@ -427,7 +427,7 @@ class GraphBuilder {
                         IcpResult* second) const {
     *second = RefineNear(cloud, runner_up);
     if (!Acceptable(*second)) return Ahead::kBest;
-    const OccupancyGrid free_space = LocalFreeSpace();
+    const OccupancyGrid free_space = FreeSpace(local_keyframes_);
     const double best_contradicted = ContradictedShare(free_space, cloud, best.pose);
     const double second_contradicted = ContradictedShare(free_space, cloud, second->pose);
     constexpr double kContradicted = 0.1;
@@ -589,15 +589,19 @@ class GraphBuilder {
     return tried;
   }
 
-  // Keyframe j and its neighbours in the world frame (those far enough back).
-  PointCloud LoopSubmap(size_t j, size_t K) const {
-    PointCloud submap;
+  // Keyframe j and its neighbours (those far enough back).
+  std::vector<size_t> LoopSubmapKeyframes(size_t j, size_t K) const {
+    std::vector<size_t> out;
     const size_t lo = j > static_cast<size_t>(o_.loop_submap_neighbours) ? j - o_.loop_submap_neighbours : 0;
     const size_t hi = std::min(K - 1, j + o_.loop_submap_neighbours);
-    for (size_t m = lo; m <= hi; ++m) {
-      if (path_ - res_.keyframes[m].path < o_.loop_min_travel) continue;
-      submap.Append(res_.keyframes[m].cloud, KeyframePose(m));
-    }
+    for (size_t m = lo; m <= hi; ++m)
+      if (path_ - res_.keyframes[m].path >= o_.loop_min_travel) out.push_back(m);
+    return out;
+  }
+  // Their points in the world frame.
+  PointCloud LoopSubmap(const std::vector<size_t>& keyframes) const {
+    PointCloud submap;
+    for (size_t m : keyframes) submap.Append(res_.keyframes[m].cloud, KeyframePose(m));
     return submap;
   }
 
@@ -614,10 +618,11 @@ class GraphBuilder {
     const SE2 xk = KeyframePose(K);
     for (size_t j : LoopCandidates(K)) {
       ++res_.stats.loop_candidates;
-      const PointCloud submap = LoopSubmap(j, K);
+      const std::vector<size_t> around = LoopSubmapKeyframes(j, K);
+      const PointCloud query = LoopQuery(K);
       SE2 matched;
       Eigen::Matrix3d linfo;
-      if (!VerifyLoopClosure(submap, LoopQuery(K), xk, LoopRadius(j), o_, &matched, &linfo))
+      if (!VerifyLoopClosure(LoopSubmap(around), query, xk, LoopRadius(j), o_, &matched, &linfo))
         continue;
       Edge lc;
       lc.kind = EdgeKind::kLoopClosure;

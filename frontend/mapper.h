@@ -60,7 +60,7 @@ struct MapperOptions {
   double loop_min_travel = 8.0;         // metres of path between the two ends
   double loop_radius = 1.0;             // candidate radius at zero path...
   double loop_radius_growth = 0.02;     // ...growing per metre of path since...
-  double loop_max_radius = 3.0;         // ...up to this
+  double loop_max_radius = 5.0;         // ...up to this
   double loop_angular_window = 0.35;    // 20 degrees
   int loop_max_candidates = 2;          // per keyframe
   int loop_submap_neighbours = 3;       // keyframes each side of the candidate

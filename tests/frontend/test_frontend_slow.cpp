@@ -104,13 +104,18 @@ TEST(HarnessEndToEnd, AcesGlitchSeedsOnceLost) {
 // Seed 7: at scan 209 the narrow match had 11% inliers and the wide pose
 // 89%, refused as ambiguous; the step kept the odometry's 78 degree error
 // as a confident edge (17.1 m). Such a scan now disputes the odometry, and
-// the edges in and out of the loss are weak. Not yet within 0.15 m
-// (0.637 m: the recovery two scans later lies along a corridor).
-TEST(HarnessEndToEnd, AcesGlitchSeedSevenStaysNearTheLog) {
-  const double ate = HarnessAte("aces", "glitch", 7);
-  if (ate == -1) GTEST_SKIP() << "dataset not found: aces-corrected.log.gz";
-  EXPECT_GT(ate, 0);
-  EXPECT_LE(ate, 1.0);
+// the edges in and out of the loss are weak. Then 0.524 m, and seed 61
+// 0.565 m: a glitched stretch a degree off brought the robot back to the
+// start 3.9 m from it, beyond the 3 m cap on the loop search's radius, and
+// no loop closure held the start (the plain log comes back 2.65 m off).
+// With the cap at 5 m both are within 0.15 m.
+TEST(HarnessEndToEnd, AcesGlitchSeedsBackAtTheStart) {
+  for (const int seed : {7, 61}) {
+    const double ate = HarnessAte("aces", "glitch", seed);
+    if (ate == -1) GTEST_SKIP() << "dataset not found: aces-corrected.log.gz";
+    EXPECT_GT(ate, 0) << "seed " << seed;
+    EXPECT_LE(ate, 0.15) << "seed " << seed;
+  }
 }
 
 // A glitched step's wide search finds the true pose and a half-turned twin

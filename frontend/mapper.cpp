@@ -324,7 +324,8 @@ class GraphBuilder {
     // Below the recent median alone is a reason to look wider, not to drop
     // a match the plain test accepts.
     if (!wide_better) {
-      if (narrow_ok && (at_edge || implausible)) return MostPlausible(cloud, predicted, narrow, wide, cr);
+      if (narrow_ok && (at_edge || implausible))
+        return MostPlausible(cloud, predicted, narrow, wide, cr);
       if (Acceptable(narrow)) return narrow;
       // The scan disputes the odometry when its best pose lies at the
       // window's edge, or when it fits far better somewhere the ambiguity
@@ -364,7 +365,8 @@ class GraphBuilder {
     };
     auto from_prediction = [&](const IcpResult& r) {
       const SE2 d = predicted.Between(r.pose);
-      return d.translation().norm() / 0.3 + std::abs(d.theta()) / 0.17;  // in odometry steps' errors
+      // In odometry steps' errors.
+      return d.translation().norm() / 0.3 + std::abs(d.theta()) / 0.17;
     };
     double top = 0;
     for (const IcpResult& r : candidates) top = std::max(top, plausible_fit(r));
@@ -373,8 +375,8 @@ class GraphBuilder {
     for (size_t k = 1; k < candidates.size(); ++k) {
       const bool tied = plausible_fit(candidates[k]) >= top - kTie;
       const bool chosen_tied = plausible_fit(candidates[chosen]) >= top - kTie;
-      if (tied && (!chosen_tied || from_prediction(candidates[k]) < from_prediction(candidates[chosen])))
-        chosen = k;
+      const bool nearer = from_prediction(candidates[k]) < from_prediction(candidates[chosen]);
+      if (tied && (!chosen_tied || nearer)) chosen = k;
     }
     if (chosen != 0) ++res_.stats.recoveries;
     return candidates[chosen];
@@ -589,19 +591,15 @@ class GraphBuilder {
     return tried;
   }
 
-  // Keyframe j and its neighbours (those far enough back).
-  std::vector<size_t> LoopSubmapKeyframes(size_t j, size_t K) const {
-    std::vector<size_t> out;
+  // Keyframe j and its neighbours in the world frame (those far enough back).
+  PointCloud LoopSubmap(size_t j, size_t K) const {
+    PointCloud submap;
     const size_t lo = j > static_cast<size_t>(o_.loop_submap_neighbours) ? j - o_.loop_submap_neighbours : 0;
     const size_t hi = std::min(K - 1, j + o_.loop_submap_neighbours);
-    for (size_t m = lo; m <= hi; ++m)
-      if (path_ - res_.keyframes[m].path >= o_.loop_min_travel) out.push_back(m);
-    return out;
-  }
-  // Their points in the world frame.
-  PointCloud LoopSubmap(const std::vector<size_t>& keyframes) const {
-    PointCloud submap;
-    for (size_t m : keyframes) submap.Append(res_.keyframes[m].cloud, KeyframePose(m));
+    for (size_t m = lo; m <= hi; ++m) {
+      if (path_ - res_.keyframes[m].path < o_.loop_min_travel) continue;
+      submap.Append(res_.keyframes[m].cloud, KeyframePose(m));
+    }
     return submap;
   }
 
@@ -618,11 +616,10 @@ class GraphBuilder {
     const SE2 xk = KeyframePose(K);
     for (size_t j : LoopCandidates(K)) {
       ++res_.stats.loop_candidates;
-      const std::vector<size_t> around = LoopSubmapKeyframes(j, K);
-      const PointCloud query = LoopQuery(K);
+      const PointCloud submap = LoopSubmap(j, K);
       SE2 matched;
       Eigen::Matrix3d linfo;
-      if (!VerifyLoopClosure(LoopSubmap(around), query, xk, LoopRadius(j), o_, &matched, &linfo))
+      if (!VerifyLoopClosure(submap, LoopQuery(K), xk, LoopRadius(j), o_, &matched, &linfo))
         continue;
       Edge lc;
       lc.kind = EdgeKind::kLoopClosure;

@@ -359,25 +359,19 @@ class GraphBuilder {
     };
     consider(wide);
     if (cr.runner_up_ratio > 0) consider(RefineNear(cloud, cr.runner_up));
-    auto plausible_fit = [&](const IcpResult& r) {
+    std::vector<double> fit, away;
+    for (const IcpResult& r : candidates) {
       const double m = misfit(r);
-      return r.inlier_fraction * (1 - o_.recovery_arc_penalty * m * m);
-    };
-    auto from_prediction = [&](const IcpResult& r) {
+      fit.push_back(r.inlier_fraction * (1 - o_.recovery_arc_penalty * m * m));
+      // From the prediction, in odometry steps' errors.
       const SE2 d = predicted.Between(r.pose);
-      // In odometry steps' errors.
-      return d.translation().norm() / 0.3 + std::abs(d.theta()) / 0.17;
-    };
-    double top = 0;
-    for (const IcpResult& r : candidates) top = std::max(top, plausible_fit(r));
-    constexpr double kTie = 0.05;
-    size_t chosen = 0;
-    for (size_t k = 1; k < candidates.size(); ++k) {
-      const bool tied = plausible_fit(candidates[k]) >= top - kTie;
-      const bool chosen_tied = plausible_fit(candidates[chosen]) >= top - kTie;
-      const bool nearer = from_prediction(candidates[k]) < from_prediction(candidates[chosen]);
-      if (tied && (!chosen_tied || nearer)) chosen = k;
+      away.push_back(d.translation().norm() / 0.3 + std::abs(d.theta()) / 0.17);
     }
+    constexpr double kTie = 0.05;
+    const double tied = *std::max_element(fit.begin(), fit.end()) - kTie;
+    size_t chosen = 0;
+    for (size_t k = 1; k < candidates.size(); ++k)
+      if (fit[k] >= tied && (fit[chosen] < tied || away[k] < away[chosen])) chosen = k;
     if (chosen != 0) ++res_.stats.recoveries;
     return candidates[chosen];
   }
@@ -429,7 +423,7 @@ class GraphBuilder {
                         IcpResult* second) const {
     *second = RefineNear(cloud, runner_up);
     if (!Acceptable(*second)) return Ahead::kBest;
-    const OccupancyGrid free_space = FreeSpace(local_keyframes_);
+    const OccupancyGrid free_space = FreeSpace(LocalMapKeyframes());
     const double best_contradicted = ContradictedShare(free_space, cloud, best.pose);
     const double second_contradicted = ContradictedShare(free_space, cloud, second->pose);
     constexpr double kContradicted = 0.1;
@@ -637,14 +631,13 @@ class GraphBuilder {
     }
   }
 
-  void RebuildLocalMap() {
-    PointCloud world;
-    // The last keyframes whose poses the scans confirmed. One placed by the
-    // odometry alone while tracking was lost may be turned or shifted: in
-    // the local map it would drag the next scans with it, and they could
-    // never be matched back. Looking back at most twice the usual span:
-    // after a longer loss the trusted keyframes are out of sight and the
-    // recent ones are all there is.
+  // The last keyframes whose poses the scans confirmed, oldest first. One
+  // placed by the odometry alone while tracking was lost may be turned or
+  // shifted: in the local map it would drag the next scans with it, and
+  // they could never be matched back. Looking back at most twice the usual
+  // span: after a longer loss the trusted keyframes are out of sight and
+  // the recent ones are all there is.
+  std::vector<size_t> LocalMapKeyframes() const {
     const size_t K = res_.keyframes.size(), n = static_cast<size_t>(o_.local_map_keyframes);
     const size_t oldest = K > 2 * n ? K - 2 * n : 0;
     std::vector<size_t> use;
@@ -652,10 +645,13 @@ class GraphBuilder {
       if (!res_.keyframes[k].lost) use.push_back(k);
     if (use.empty())
       for (size_t k = K; k-- > oldest && use.size() < n;) use.push_back(k);
-    local_keyframes_.assign(use.rbegin(), use.rend());
+    return {use.rbegin(), use.rend()};
+  }
+
+  void RebuildLocalMap() {
+    PointCloud world;
     // Oldest first, as Downsample keeps the first point of each cell.
-    for (auto it = use.rbegin(); it != use.rend(); ++it)
-      world.Append(res_.keyframes[*it].cloud, KeyframePose(*it));
+    for (size_t k : LocalMapKeyframes()) world.Append(res_.keyframes[k].cloud, KeyframePose(k));
     const auto t0 = Clock::now();
     // Overlapping keyframes repeat points; one per 2.5 cm is plenty.
     local_ = std::make_unique<MapPair>(Downsample(world, 0.025));
@@ -686,7 +682,6 @@ class GraphBuilder {
   // The last scan's wide pose, refused as ambiguous, for the next to second.
   std::optional<SE2> hypothesis_;
   const LaserScan* next_scan_ = nullptr;  // the one after the scan being tracked
-  std::vector<size_t> local_keyframes_;  // the local map's, oldest first
   Clock::time_point start_ = Clock::now(), last_report_ = start_;
   MapResult res_;
   PoseGraph& graph_;

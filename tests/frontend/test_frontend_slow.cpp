@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -77,6 +78,16 @@ double HarnessAte(const std::string& log_name, const std::string& kase, int seed
   return std::stod(m[1]);
 }
 
+// Each (log, seed) glitch run of the harness within `bound` m ATE.
+void ExpectGlitchRunsWithin(std::initializer_list<std::pair<const char*, int>> runs, double bound) {
+  for (const auto& [log, seed] : runs) {
+    const double ate = HarnessAte(log, "glitch", seed);
+    if (ate == -1) GTEST_SKIP() << "dataset not found: " << log << "-corrected.log.gz";
+    EXPECT_GT(ate, 0) << log << " seed " << seed;
+    EXPECT_LE(ate, bound) << log << " seed " << seed;
+  }
+}
+
 // Three steps of aces' odometry with the heading 60-90 degrees off (and up
 // to 1 m of translation): 22.9 m ATE before tracking judged its matches.
 TEST(HarnessEndToEnd, AcesWithOdometryGlitches) {
@@ -93,12 +104,7 @@ TEST(HarnessEndToEnd, AcesWithOdometryGlitches) {
 // along a corridor from the scan's place; searched again at that heading
 // around the predicted position (0.221 m before).
 TEST(HarnessEndToEnd, AcesGlitchSeedsOnceLost) {
-  for (const int seed : {3, 6}) {
-    const double ate = HarnessAte("aces", "glitch", seed);
-    if (ate == -1) GTEST_SKIP() << "dataset not found: aces-corrected.log.gz";
-    EXPECT_GT(ate, 0) << "seed " << seed;
-    EXPECT_LE(ate, 0.15) << "seed " << seed;
-  }
+  ExpectGlitchRunsWithin({{"aces", 3}, {"aces", 6}}, 0.15);
 }
 
 // Seed 7: at scan 209 the narrow match had 11% inliers and the wide pose
@@ -110,12 +116,7 @@ TEST(HarnessEndToEnd, AcesGlitchSeedsOnceLost) {
 // no loop closure held the start (the plain log comes back 2.65 m off).
 // With the cap at 5 m both are within 0.15 m.
 TEST(HarnessEndToEnd, AcesGlitchSeedsBackAtTheStart) {
-  for (const int seed : {7, 61}) {
-    const double ate = HarnessAte("aces", "glitch", seed);
-    if (ate == -1) GTEST_SKIP() << "dataset not found: aces-corrected.log.gz";
-    EXPECT_GT(ate, 0) << "seed " << seed;
-    EXPECT_LE(ate, 0.15) << "seed " << seed;
-  }
+  ExpectGlitchRunsWithin({{"aces", 7}, {"aces", 61}}, 0.15);
 }
 
 // A glitched step's wide search finds the true pose and a half-turned twin
@@ -130,15 +131,7 @@ TEST(HarnessEndToEnd, AcesGlitchSeedsBackAtTheStart) {
 // the next scan, carried to each, fits the runner-up, the true pose (14.9 m
 // when the best was taken).
 TEST(HarnessEndToEnd, GlitchesNextToTheirTwins) {
-  for (const auto& [log, seed] : {std::pair<const char*, int>{"aces", 12},
-                                  {"csail", 10},
-                                  {"aces", 25},
-                                  {"intel", 12}}) {
-    const double ate = HarnessAte(log, "glitch", seed);
-    if (ate == -1) GTEST_SKIP() << "dataset not found: " << log << "-corrected.log.gz";
-    EXPECT_GT(ate, 0) << log << " seed " << seed;
-    EXPECT_LE(ate, 0.15) << log << " seed " << seed;
-  }
+  ExpectGlitchRunsWithin({{"aces", 12}, {"csail", 10}, {"aces", 25}, {"intel", 12}}, 0.15);
 }
 
 // At a glitch's scan the wide search's best pose and its runner-up, turned
@@ -149,14 +142,7 @@ TEST(HarnessEndToEnd, GlitchesNextToTheirTwins) {
 // map's keyframes saw through, the true pose under 1%. csail seeds 11 and 61
 // (11.2 and 10.9 m before), intel seed 45 (8.28 m).
 TEST(HarnessEndToEnd, TwinsThatPutWallsInFreeSpace) {
-  for (const auto& [log, seed] : {std::pair<const char*, int>{"csail", 11},
-                                  {"csail", 61},
-                                  {"intel", 45}}) {
-    const double ate = HarnessAte(log, "glitch", seed);
-    if (ate == -1) GTEST_SKIP() << "dataset not found: " << log << "-corrected.log.gz";
-    EXPECT_GT(ate, 0) << log << " seed " << seed;
-    EXPECT_LE(ate, 0.15) << log << " seed " << seed;
-  }
+  ExpectGlitchRunsWithin({{"csail", 11}, {"csail", 61}, {"intel", 45}}, 0.15);
 }
 
 // csail with its odometry's error three times larger: narrow matches at the

@@ -461,8 +461,9 @@ void TakeBackAllFitting(RejectionState& s) {
 // another basin than the kept graph's own optimum (it was shaped by the loop
 // closures weighed in along the way): it is solved in full from there and
 // from a fresh start (options.fresh_init on the kept graph; kFile: the
-// starting estimate), and the lower chi2 stays.
-void SolveKeptToOptimum(RejectionState& s, const PoseGraph& start) {
+// starting estimate), and the lower chi2 stays. Returns whether the fresh
+// start's did.
+bool SolveKeptToOptimum(RejectionState& s, const PoseGraph& start) {
   PoseGraph fresh = s.inliers;
   for (size_t i = 0; i < fresh.vertices().size(); ++i)
     fresh.vertices()[i].x = start.vertices()[i].x;
@@ -478,6 +479,7 @@ void SolveKeptToOptimum(RejectionState& s, const PoseGraph& start) {
                  anew.iterations, take_fresh ? "fresh" : "estimate");
   s.out.solve = take_fresh ? anew : here;
   if (take_fresh) s.inliers = std::move(fresh);
+  return take_fresh;
 }
 
 // GNC until its weights are binary, from the confirmed loop closures when
@@ -543,7 +545,9 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
   }
 
   TakeBackAllFitting(s);
-  if (options.final_solve) SolveKeptToOptimum(s, graph);
+  // A fresh start can land the kept graph in another basin, where rejected
+  // loop closures that the stages' estimate could not take fit again.
+  if (options.final_solve && SolveKeptToOptimum(s, graph)) TakeBackAllFitting(s);
 
   OutlierRejectionResult out = std::move(s.out);
   for (size_t k = 0; k < graph.edges().size(); ++k)

@@ -25,8 +25,8 @@ bool OutlierRejectionOptions::IsValid(std::string* error) const {
     why = "trusted_iterations must not be negative";
   else if (max_passes < 0 || max_verify_rounds < 0)
     why = "max_passes and max_verify_rounds must not be negative";
-  else if (!(readmit_reach >= 0))
-    why = "readmit_reach must not be negative";
+  else if (!(readmit_reach >= 0) || !(readmit_tail >= 0))
+    why = "readmit_reach and readmit_tail must not be negative";
   if (why && error) *error = why;
   return !why;
 }

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "cairn/graph/initialization.h"
@@ -65,8 +66,14 @@ struct OutlierRejectionOptions {
   // After verification: take back rejected loop closures (chi2 within
   // readmit_reach c^2) whose innovation statistic is within c^2 times the
   // a-posteriori variance factor (at most 1), then verify again.
+  // Infinity: every rejected one is a candidate (good loop closures to a
+  // stretch only they held reach chi2 1000 c^2 once they are out).
   bool readmit = true;
-  double readmit_reach = 100;
+  double readmit_reach = std::numeric_limits<double>::infinity();
+  // ... or within this many times the 99th percentile of the kept loop
+  // closures' deleted-residual statistics at the first pass where that is
+  // larger (never beyond c^2): for noise with a heavier tail than chi2's.
+  double readmit_tail = 4;
   // At the end: the kept graph solved in full from the estimate reached and
   // from `fresh_init` (kFile: the starting estimate), the lower chi2 kept.
   bool final_solve = true;

@@ -244,9 +244,29 @@ class ForwardSolves {
   std::vector<int> reach_;  // the columns the solves touch, ascending
 };
 
+// A lower bound on r^T (I + J S J^T)^{-1} r from S's diagonal blocks alone
+// (one per pose, on the factor's pattern): S <= 2 diag(S_aa, S_bb), since
+// S with its off-diagonal blocks negated is positive semi-definite too.
+double InnovationLowerBound(const SelectedInverse& z, const Eigen::VectorXi& perm,
+                            const Linearized& lin, const Eigen::MatrixXd& J,
+                            const std::vector<int>& cols, int d) {
+  const int poses = static_cast<int>(cols.size()) / d;
+  Eigen::MatrixXd upper = Eigen::MatrixXd::Identity(d, d);
+  for (int p = 0; p < poses; ++p) {
+    Eigen::MatrixXd block(d, d);
+    for (int i = 0; i < d; ++i)
+      for (int j = 0; j <= i; ++j)
+        block(i, j) = block(j, i) = z.At(perm[cols[p * d + i]], perm[cols[p * d + j]]);
+    const Eigen::MatrixXd jp = J.middleCols(p * d, d);
+    upper += (poses > 1 ? 2.0 : 1.0) * jp * block * jp.transpose();
+  }
+  return lin.r.dot(upper.ldlt().solve(lin.r));
+}
+
 }  // namespace
 
-std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::vector<Edge>& candidates) {
+std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::vector<Edge>& candidates,
+                                           double screen) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   RequireNoLandmarks(graph, "the innovation test");
   std::vector<InnovationStat> out(candidates.size(), InnovationStat{nan, nan});
@@ -256,10 +276,19 @@ std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::ve
   const Eigen::SparseMatrix<double> L = normal.llt().matrixL().nestedExpression();
   const Eigen::VectorXi perm = normal.llt().permutationP().indices();
   ForwardSolves solves(L, perm);
+  std::unique_ptr<SelectedInverse> z;
+  if (std::isfinite(screen)) z = std::make_unique<SelectedInverse>(L);
   Eigen::MatrixXd J;
   std::vector<int> cols;
   for (size_t k = 0; k < candidates.size(); ++k) {
     const Linearized lin = normal.Restricted(candidates[k], &J, &cols);
+    if (z) {
+      const double low = InnovationLowerBound(*z, perm, lin, J, cols, d);
+      if (low > screen) {
+        out[k] = InnovationStat{low, nan, false};
+        continue;
+      }
+    }
     // The two poses' joint covariance.
     const Eigen::MatrixXd S = solves.Covariance(cols);
     const Eigen::MatrixXd P = J * S * J.transpose();

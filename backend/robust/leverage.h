@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <vector>
 
 #include "cairn/graph/pose_graph.h"
@@ -35,10 +36,18 @@ std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vecto
 // exact joint covariance of its two poses (H X = E solved for their
 // columns), and the largest eigenvalue of J Sigma J^T (`spread`: how loosely
 // the graph holds the pair relative to the edge's own covariance).
+// With `screen` finite, a candidate whose statistic provably exceeds it is
+// not computed exactly: its chi2 is then a lower bound above `screen` (from
+// the two poses' own covariance blocks, S <= 2 diag(S_aa, S_bb)), spread
+// NaN and exact false. Far-apart wrong loop closures cost a long walk of
+// the elimination tree each; the bound needs none.
 struct InnovationStat {
   double chi2;
   double spread;
+  bool exact = true;
 };
-std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::vector<Edge>& candidates);
+std::vector<InnovationStat> InnovationChi2(
+    const PoseGraph& graph, const std::vector<Edge>& candidates,
+    double screen = std::numeric_limits<double>::infinity());
 
 }  // namespace cairn

@@ -437,26 +437,27 @@ size_t Readmit(RejectionState& s) {
     cand_k.push_back(k);
   }
   if (cand.empty()) return 0;
-  std::vector<InnovationStat> stat;
-  try {
-    stat = InnovationChi2(s.inliers, cand);
-  } catch (const std::runtime_error& e) {
-    if (options.verbose) std::fprintf(stderr, "re-admission skipped: %s\n", e.what());
-    return 0;
-  }
   const double factor = VarianceFactor(s);
   // Fixed at the first pass: the percentile grows with each good loop
   // closure taken back, and a wrong one to a loosely held stretch would
   // follow (intel, 90% random: innovation 2.07, bound 1.1 then 2.1).
   if (s.readmit_bound < 0) s.readmit_bound = ReadmissionBound(s, factor);
   const double bound = std::max(s.readmit_bound, s.c2 * factor);
+  std::vector<InnovationStat> stat;
+  try {
+    stat = InnovationChi2(s.inliers, cand, bound);
+  } catch (const std::runtime_error& e) {
+    if (options.verbose) std::fprintf(stderr, "re-admission skipped: %s\n", e.what());
+    return 0;
+  }
   size_t back = 0;
   for (size_t i = 0; i < cand.size(); ++i) {
     const bool ok = stat[i].chi2 <= bound;
     if (options.verbose)
-      std::fprintf(stderr, "readmit? %lld-%lld chi2 %.4g innovation %.4g spread %.4g%s\n",
+      std::fprintf(stderr, "readmit? %lld-%lld chi2 %.4g innovation %s%.4g spread %.4g%s\n",
                    static_cast<long long>(cand[i].from), static_cast<long long>(cand[i].to),
-                   EdgeChi2(s.inliers, cand[i]), stat[i].chi2, stat[i].spread, ok ? " yes" : "");
+                   EdgeChi2(s.inliers, cand[i]), stat[i].exact ? "" : "at least ", stat[i].chi2,
+                   stat[i].spread, ok ? " yes" : "");
     if (ok) {
       s.rejected[cand_k[i]] = false;
       ++back;

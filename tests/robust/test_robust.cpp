@@ -312,6 +312,41 @@ TEST(Leverage, InnovationPredictsTheRiseOfChi2WhenALoopClosureIsAdded) {
   }
 }
 
+// The screened statistic: candidates whose bound from the poses' own
+// covariance blocks exceeds the screen are not computed exactly, and that
+// bound never exceeds the exact statistic; the rest are the exact values.
+TEST(Leverage, ScreenedInnovationIsABoundOrTheExactValue) {
+  for (int dim : {2, 3}) {
+    PoseGraph g = Simulated(dim, dim == 2 ? 300 : 200, 24).noisy;
+    const size_t good = g.edges().size();
+    AddWrongLoopClosures(g, 30, 7);
+    std::vector<Edge> candidates(g.edges().begin() + good, g.edges().end());
+    g.mutable_edges().resize(good);
+    for (size_t k = 0; k < good; k += 9)
+      if (g.edges()[k].kind == EdgeKind::kLoopClosure) candidates.push_back(g.edges()[k]);
+    SolveWithCeres(g, QuietCeres());
+    const std::vector<InnovationStat> exact = InnovationChi2(g, candidates);
+    std::vector<double> sorted;
+    for (const InnovationStat& e : exact) sorted.push_back(e.chi2);
+    std::sort(sorted.begin(), sorted.end());
+    const double screen = sorted[sorted.size() / 10];
+    const std::vector<InnovationStat> screened = InnovationChi2(g, candidates, screen);
+    size_t skipped = 0;
+    for (size_t i = 0; i < candidates.size(); ++i) {
+      ASSERT_TRUE(exact[i].exact);
+      if (screened[i].exact) {
+        EXPECT_EQ(screened[i].chi2, exact[i].chi2);
+      } else {
+        ++skipped;
+        EXPECT_GT(screened[i].chi2, screen);
+        EXPECT_LE(screened[i].chi2, exact[i].chi2 * (1 + 1e-9)) << "dim " << dim << " " << i;
+      }
+    }
+    // The wrong ones are far above the screen: many are not computed.
+    EXPECT_GE(skipped, candidates.size() / 4) << "dim " << dim;
+  }
+}
+
 TEST(Leverage, AWrongLoopClosureTheEstimateBentToFitStandsOut) {
   PoseGraph g = Simulated(2, 300, 5).noisy;
   const size_t good = g.edges().size();

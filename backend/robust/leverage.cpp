@@ -77,6 +77,15 @@ class SelectedInverse {
     }
   }
 
+  // Sigma's block over the original unknowns cols[0..m) (symmetric), for a
+  // factor of P H P^T: Sigma(p, q) = Z(perm[p], perm[q]).
+  Eigen::MatrixXd Block(const Eigen::VectorXi& perm, const int* cols, int m) const {
+    Eigen::MatrixXd b(m, m);
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j <= i; ++j) b(i, j) = b(j, i) = At(perm[cols[i]], perm[cols[j]]);
+    return b;
+  }
+
   // Z_ik for a pair on the pattern (either order).
   double At(int i, int k) const {
     if (i < k) std::swap(i, k);
@@ -174,7 +183,6 @@ std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vecto
   const int d = graph.TangentSize();
   const Eigen::SparseMatrix<double> L = normal.llt().matrixL().nestedExpression();
   const SelectedInverse z(L);
-  // The factor is of P H P^T: Sigma(p, q) = Z(perm[p], perm[q]).
   const Eigen::VectorXi perm = normal.llt().permutationP().indices();
   Eigen::MatrixXd J;
   std::vector<int> cols;
@@ -183,10 +191,7 @@ std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vecto
     if (e.IsPrior()) throw std::invalid_argument("DeletedResidualChi2: a prior is no between-edge");
     // J restricted to the variable poses, and those poses' joint covariance.
     const Linearized lin = normal.Restricted(e, &J, &cols);
-    const int m = static_cast<int>(cols.size());
-    Eigen::MatrixXd S(m, m);
-    for (int i = 0; i < m; ++i)
-      for (int j = 0; j <= i; ++j) S(i, j) = S(j, i) = z.At(perm[cols[i]], perm[cols[j]]);
+    const Eigen::MatrixXd S = z.Block(perm, cols.data(), static_cast<int>(cols.size()));
     const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(d, d) - J * S * J.transpose();
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(M);
     // 1 - leverage: near 0, the edge alone decides a direction.
@@ -253,12 +258,8 @@ double InnovationLowerBound(const SelectedInverse& z, const Eigen::VectorXi& per
   const int poses = static_cast<int>(cols.size()) / d;
   Eigen::MatrixXd upper = Eigen::MatrixXd::Identity(d, d);
   for (int p = 0; p < poses; ++p) {
-    Eigen::MatrixXd block(d, d);
-    for (int i = 0; i < d; ++i)
-      for (int j = 0; j <= i; ++j)
-        block(i, j) = block(j, i) = z.At(perm[cols[p * d + i]], perm[cols[p * d + j]]);
     const Eigen::MatrixXd jp = J.middleCols(p * d, d);
-    upper += (poses > 1 ? 2.0 : 1.0) * jp * block * jp.transpose();
+    upper += (poses > 1 ? 2.0 : 1.0) * jp * z.Block(perm, cols.data() + p * d, d) * jp.transpose();
   }
   return lin.r.dot(upper.ldlt().solve(lin.r));
 }

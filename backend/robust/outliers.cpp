@@ -82,11 +82,6 @@ struct RejectionState {
   PoseGraph inliers;  // `graph` without the rejected edges
   std::vector<size_t> kept;    // edges of `inliers` that are loop closures
   std::vector<size_t> origin;  // per edge of `inliers`, its index in `graph`
-  // The verification's deleted-residual statistics of `kept`, valid while
-  // out.rounds is kept_deleted_round (no solve since).
-  std::vector<double> kept_deleted;
-  int kept_deleted_round = -1;
-  double readmit_bound = -1;  // ReadmissionBound at the first pass
 
   // Every inner solve goes through here, so the result covers the run.
   SolveResult Solve(PoseGraph& g, int iterations) {
@@ -343,21 +338,21 @@ size_t TakeBackFitting(RejectionState& s) {
 // deleted-residual statistic predicts by how much chi2 falls: more than c^2
 // and the truncated cost itself is lower without it (it then costs c^2).
 // The worst such loop closure goes, the rest is re-solved and checked again.
-void Verify(RejectionState& s) {
+// Returns the kept loop closures' statistics at the estimate it leaves when
+// it ended on them (nothing left to reject), else nothing.
+std::vector<double> Verify(RejectionState& s) {
   const OutlierRejectionOptions& options = s.options;
   for (int round = 0; options.verify && round < options.max_verify_rounds; ++round) {
     if (!s.out.solve.usable) break;
     std::vector<double> gain;
     try {
       gain = DeletedResidualChi2(s.inliers, s.kept);
-      s.kept_deleted = gain;
-      s.kept_deleted_round = s.out.rounds;
     } catch (const std::runtime_error& e) {
       if (options.verbose) std::fprintf(stderr, "verification skipped: %s\n", e.what());
-      break;
+      return {};
     }
     const size_t worst = WorstToDelete(s, gain);
-    if (worst == s.kept.size()) break;
+    if (worst == s.kept.size()) return gain;
     const Edge& e = s.inliers.edges()[s.kept[worst]];
     if (options.verbose)
       std::fprintf(stderr,
@@ -377,6 +372,7 @@ void Verify(RejectionState& s) {
       SolveInliersAgain(s);
     }
   }
+  return {};
 }
 
 // The noise the kept graph shows, chi2 per degree of freedom (the
@@ -394,38 +390,41 @@ double VarianceFactor(const RejectionState& s) {
   return dof > 0 ? std::min(1.0, Chi2(inliers) / dof) : 1.0;
 }
 
-// The largest innovation a rejected loop closure may have to come back:
-// c^2 times the variance factor, or, where larger, readmit_tail times the
+// What a good loop closure costs on these data: readmit_tail times the
 // 99th percentile of the kept loop closures' own deleted-residual
-// statistics (what a good one costs on these data), never beyond c^2 (past
-// it the truncated cost is lower without the loop closure). The variance
-// factor is a mean and assumes chi2's tail: good loop closures are often
-// heavier-tailed (at the clean optima, the ratio of that percentile to the
-// median is 20 on intel and 18 on manhattan, chi2(3)'s is 4.8), and the
-// factor's bound alone kept out good ones whose innovation was 19-33 on
-// manhattan (bound 18, wrong ones 169 and more) and 1.6 on intel (bound
-// 0.40-0.44, wrong ones 2.07 and more).
-double ReadmissionBound(const RejectionState& s, double factor) {
-  const double scaled = s.c2 * factor;
-  std::vector<double> own;
-  try {
-    const bool fresh = s.kept_deleted_round == s.out.rounds;
-    for (double d : fresh ? s.kept_deleted : DeletedResidualChi2(s.inliers, s.kept))
-      if (std::isfinite(d)) own.push_back(d);
-  } catch (const std::runtime_error&) {
-    return scaled;
+// statistics, never beyond c^2 (past it the truncated cost is lower without
+// the loop closure); 0 when they cannot be computed. Re-admission takes the
+// larger of this and c^2 times the variance factor. The factor is a mean
+// and assumes chi2's tail: good loop closures are often heavier-tailed (at
+// the clean optima, the ratio of that percentile to the median is 20 on
+// intel and 18 on manhattan, chi2(3)'s is 4.8), and the factor's bound
+// alone kept out good ones whose innovation was 19-33 on manhattan (bound
+// 18, wrong ones 169 and more) and 1.6 on intel (bound 0.40-0.44, wrong
+// ones 2.07 and more). `stats`: those statistics at the current estimate
+// when the verification left them (else they are computed here).
+double TailBound(const RejectionState& s, std::vector<double> stats) {
+  if (stats.empty()) {
+    try {
+      stats = DeletedResidualChi2(s.inliers, s.kept);
+    } catch (const std::runtime_error&) {
+      return 0;
+    }
   }
-  if (own.empty()) return scaled;
+  std::vector<double> own;
+  for (double d : stats)
+    if (std::isfinite(d)) own.push_back(d);
+  if (own.empty()) return 0;
   const size_t at = std::min(own.size() - 1, static_cast<size_t>(0.99 * own.size()));
   std::nth_element(own.begin(), own.begin() + at, own.end());
-  return std::min(s.c2, std::max(scaled, s.options.readmit_tail * own[at]));
+  return std::min(s.c2, s.options.readmit_tail * own[at]);
 }
 
 // One pass of re-admission: the rejected loop closures (not rejected by the
 // verification, chi2 within readmit_reach c^2) whose innovation statistic is
-// within ReadmissionBound are taken back. Returns how many; 0 also when
-// there is no candidate or the statistic cannot be computed.
-size_t Readmit(RejectionState& s) {
+// within the larger of c^2 times the variance factor and `tail` (TailBound)
+// are taken back. Returns how many; 0 also when there is no candidate or
+// the statistic cannot be computed.
+size_t Readmit(RejectionState& s, double tail) {
   const OutlierRejectionOptions& options = s.options;
   std::vector<Edge> cand;
   std::vector<size_t> cand_k;
@@ -438,11 +437,7 @@ size_t Readmit(RejectionState& s) {
   }
   if (cand.empty()) return 0;
   const double factor = VarianceFactor(s);
-  // Fixed at the first pass: the percentile grows with each good loop
-  // closure taken back, and a wrong one to a loosely held stretch would
-  // follow (intel, 90% random: innovation 2.07, bound 1.1 then 2.1).
-  if (s.readmit_bound < 0) s.readmit_bound = ReadmissionBound(s, factor);
-  const double bound = std::max(s.readmit_bound, s.c2 * factor);
+  const double bound = std::max(tail, s.c2 * factor);
   std::vector<InnovationStat> stat;
   try {
     stat = InnovationChi2(s.inliers, cand, bound);
@@ -567,7 +562,7 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
     std::fprintf(stderr, "without the %zu rejected: chi2 %.6g, %d iterations, %.2f s\n",
                  s.closures.size() - s.kept.size(), s.out.solve.final_chi2,
                  s.out.solve.iterations, s.out.solve.time_s);
-  Verify(s);
+  std::vector<double> kept_stats = Verify(s);
 
   // Re-admission. A good loop closure outside the consistent set that the
   // estimate of the consistent ones left beyond GNC's reach stays out
@@ -575,10 +570,15 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
   // r^T (I + J Sigma J^T)^{-1} r (the rise of the optimal chi2 if it were
   // added, Sigma the exact joint covariance of its poses) tells whether the
   // graph could take it. Those within the bound come back, the rest is
-  // re-solved and verified again.
+  // re-solved and verified again. The tail bound is fixed at the first
+  // pass: the percentile grows with each good loop closure taken back, and
+  // a wrong one to a loosely held stretch would follow (intel, 90% random:
+  // innovation 2.07, bound 1.1 then 2.1).
+  const double tail =
+      options.readmit && s.out.solve.usable ? TailBound(s, std::move(kept_stats)) : 0;
   for (int pass = 0; options.readmit && pass < options.max_passes; ++pass) {
     if (!s.out.solve.usable) break;
-    if (Readmit(s) == 0) break;
+    if (Readmit(s, tail) == 0) break;
     SolveInliersAgain(s);
     Verify(s);
   }

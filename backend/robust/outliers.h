@@ -64,15 +64,14 @@ struct OutlierRejectionOptions {
   bool verify = true;
   int max_verify_rounds = 100;
   // After verification: take back rejected loop closures (chi2 within
-  // readmit_reach c^2) whose innovation statistic is within c^2 times the
-  // a-posteriori variance factor (at most 1), then verify again.
-  // Infinity: every rejected one is a candidate (good loop closures to a
-  // stretch only they held reach chi2 1000 c^2 once they are out).
+  // readmit_reach c^2; infinity: all, as good ones to a stretch only they
+  // held reach 1000 c^2 once out) whose innovation statistic is within c^2
+  // times the a-posteriori variance factor (at most 1) or, where larger,
+  // readmit_tail times the 99th percentile of the kept loop closures'
+  // deleted-residual statistics at the first pass (never beyond c^2: for
+  // noise with a heavier tail than chi2's), then verify again.
   bool readmit = true;
   double readmit_reach = std::numeric_limits<double>::infinity();
-  // ... or within this many times the 99th percentile of the kept loop
-  // closures' deleted-residual statistics at the first pass where that is
-  // larger (never beyond c^2): for noise with a heavier tail than chi2's.
   double readmit_tail = 4;
   // At the end: the kept graph solved in full from the estimate reached and
   // from `fresh_init` (kFile: the starting estimate), the lower chi2 kept.

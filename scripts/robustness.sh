@@ -6,14 +6,16 @@
 # --reject-outliers from the file's vertices and compared with the solution
 # of the uncorrupted file. Usage:
 #   [SEED=0] [DATASETS="2d/intel ..."] [CASES="random:0.3 grouped5:0.1"] \
-#     scripts/robustness.sh [WORKDIR] [SOLVER]
+#     [EXTRA="--gnc-iterations 1"] scripts/robustness.sh [WORKDIR] [SOLVER]
 # SEED shifts every case's seed (other seeds, same cases); a DATASETS entry
-# that is a readable .g2o path (e.g. from cairn simulate) is taken as it is.
+# that is a readable .g2o path (e.g. from cairn simulate) is taken as it is;
+# EXTRA is passed to every --reject-outliers run (to try other options).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 WORK="${1:-build/robustness}"
 SOLVER="${2:-ceres}"
 SEED="${SEED:-0}"
+EXTRA="${EXTRA:-}"
 DATASETS="${DATASETS:-2d/intel 2d/city10000 2d/manhattan 3d/sphere2500}"
 DATA=../shared/datasets/g2o
 mkdir -p "$WORK"
@@ -58,7 +60,7 @@ for file in $DATASETS; do
     fi
     timed "${base}.wall" \
       $CAIRN optimize "$base.g2o" -o "${base}_out.g2o" --solver "$SOLVER" --quiet \
-        --reject-outliers --rejected "${base}_rejected.g2o" --report "${base}.json"
+        --reject-outliers --rejected "${base}_rejected.g2o" --report "${base}.json" $EXTRA
     echo "$name $kind $frac $closures" >> "$WORK/runs.txt"
     echo "== $name $kind $frac: $(cat "${base}.wall") s" >&2
   done

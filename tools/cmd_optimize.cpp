@@ -124,6 +124,11 @@ void DeclareOutlierOptions(ArgParser& args, OptimizeArgs& a) {
   args.Flag("no-outlier-final-solve", &a.no_final,
             "with --reject-outliers: skip the kept graph's last solves in full (from the "
             "estimate reached and from a fresh start)");
+  args.Option("outlier-run-window", &r.group_window, "N",
+              "with --reject-outliers: the verification also tests runs of kept loop "
+              "closures (both ends within N ids of another's) as a whole, and rejects a run "
+              "whose deletion would lower chi2 by more than its size times the threshold "
+              "(0: no such test)");
   args.Flag("no-outlier-verification", &a.no_verify,
             "with --reject-outliers: skip the check after GNC (kept loop closures whose "
             "deletion would lower chi2 by more than the threshold are rejected too)");

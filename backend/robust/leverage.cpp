@@ -163,15 +163,65 @@ class NormalEquations {
     return lin;
   }
 
- private:
+  // The first column of a pose in H, -1 when it is held.
   int Offset(int64_t id) const { return offset_[graph_.VertexIndex(id)]; }
 
+ private:
   const PoseGraph& graph_;
   int d_, n_ = 0;
   std::unique_ptr<ceres::Manifold> manifold_;
   std::vector<int> offset_;  // per vertex index: first column in H, -1 when held
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt_;
 };
+
+// A group of edges linearised together: stacked whitened residuals and
+// Jacobians over the columns `cols` of H (d per pose the group touches,
+// ascending).
+struct StackedGroup {
+  Eigen::VectorXd r;
+  Eigen::MatrixXd J;
+  std::vector<int> cols;
+};
+
+StackedGroup Stack(const PoseGraph& graph, const NormalEquations& normal,
+                   const std::vector<size_t>& group) {
+  const int d = graph.TangentSize();
+  std::vector<int> first;  // each pose's first column
+  for (size_t k : group)
+    for (int64_t v : {graph.edges().at(k).from, graph.edges().at(k).to})
+      if (normal.Offset(v) >= 0) first.push_back(normal.Offset(v));
+  std::sort(first.begin(), first.end());
+  first.erase(std::unique(first.begin(), first.end()), first.end());
+  StackedGroup g;
+  for (int f : first)
+    for (int i = 0; i < d; ++i) g.cols.push_back(f + i);
+  const int rows = d * static_cast<int>(group.size());
+  g.r.resize(rows);
+  g.J = Eigen::MatrixXd::Zero(rows, static_cast<Eigen::Index>(g.cols.size()));
+  Eigen::MatrixXd J;
+  std::vector<int> cols;
+  for (size_t k = 0; k < group.size(); ++k) {
+    const Edge& e = graph.edges().at(group[k]);
+    if (e.IsPrior())
+      throw std::invalid_argument("GroupDeletedResidualChi2: a prior is no between-edge");
+    g.r.segment(d * k, d) = normal.Restricted(e, &J, &cols).r;
+    for (size_t c = 0; c < cols.size(); c += d) {
+      const auto at = std::lower_bound(first.begin(), first.end(), cols[c]) - first.begin();
+      g.J.block(d * k, d * at, d, d) = J.middleCols(c, d);
+    }
+  }
+  return g;
+}
+
+// r^T M^{-1} r for M = I - J Sigma J^T; NaN when M is singular (the edges
+// alone decide a direction: 1 - leverage near 0).
+double DeletedChi2(const Eigen::MatrixXd& M, const Eigen::VectorXd& r) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(M);
+  if (eig.info() != Eigen::Success || eig.eigenvalues().minCoeff() < 1e-9)
+    return std::numeric_limits<double>::quiet_NaN();
+  const Eigen::VectorXd u = eig.eigenvectors().transpose() * r;
+  return (u.array().square() / eig.eigenvalues().array()).sum();
+}
 
 }  // namespace
 
@@ -192,12 +242,7 @@ std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vecto
     // J restricted to the variable poses, and those poses' joint covariance.
     const Linearized lin = normal.Restricted(e, &J, &cols);
     const Eigen::MatrixXd S = z.Block(perm, cols.data(), static_cast<int>(cols.size()));
-    const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(d, d) - J * S * J.transpose();
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(M);
-    // 1 - leverage: near 0, the edge alone decides a direction.
-    if (eig.info() != Eigen::Success || eig.eigenvalues().minCoeff() < 1e-9) continue;
-    const Eigen::VectorXd u = eig.eigenvectors().transpose() * lin.r;
-    out[k] = (u.array().square() / eig.eigenvalues().array()).sum();
+    out[k] = DeletedChi2(Eigen::MatrixXd::Identity(d, d) - J * S * J.transpose(), lin.r);
   }
   return out;
 }
@@ -216,6 +261,15 @@ class ForwardSolves {
 
   // S = (L^{-1} P E)^T (L^{-1} P E).
   Eigen::MatrixXd Covariance(const std::vector<int>& cols) {
+    const auto m = static_cast<Eigen::Index>(cols.size());
+    return Gram(cols, Eigen::MatrixXd::Identity(m, m));
+  }
+
+  // (L^{-1} P B)^T (L^{-1} P B) = B^T Sigma B for a B whose rows are the
+  // original unknowns `cols` (zero elsewhere): B = E gives their
+  // covariance, B = J^T the projection J Sigma J^T of a few rows'
+  // Jacobian. Rows of the solves are updated whole, across B's columns.
+  Eigen::MatrixXd Gram(const std::vector<int>& cols, const Eigen::MatrixXd& B) {
     const int* cp = l_.outerIndexPtr();
     const int* ri = l_.innerIndexPtr();
     const double* lx = l_.valuePtr();
@@ -227,16 +281,12 @@ class ForwardSolves {
       }
     std::sort(reach_.begin(), reach_.end());
     for (size_t t = 0; t < reach_.size(); ++t) pos_[reach_[t]] = static_cast<int>(t);
-    const int m = static_cast<int>(cols.size());
-    Eigen::MatrixXd y = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(reach_.size()), m);
-    for (int c = 0; c < m; ++c) y(pos_[perm_[cols[c]]], c) = 1;
+    RowMajor y = RowMajor::Zero(static_cast<Eigen::Index>(reach_.size()), B.cols());
+    for (size_t c = 0; c < cols.size(); ++c) y.row(pos_[perm_[cols[c]]]) = B.row(c);
     for (int j : reach_) {
       const int pj = pos_[j];
-      for (int c = 0; c < m; ++c) {
-        const double v = y(pj, c) /= lx[cp[j]];
-        if (v == 0) continue;
-        for (int q = cp[j] + 1; q < cp[j + 1]; ++q) y(pos_[ri[q]], c) -= lx[q] * v;
-      }
+      y.row(pj) /= lx[cp[j]];
+      for (int q = cp[j] + 1; q < cp[j + 1]; ++q) y.row(pos_[ri[q]]) -= lx[q] * y.row(pj);
     }
     for (int j : reach_) pos_[j] = -1;
     return y.transpose() * y;
@@ -265,6 +315,26 @@ double InnovationLowerBound(const SelectedInverse& z, const Eigen::VectorXi& per
 }
 
 }  // namespace
+
+std::vector<double> GroupDeletedResidualChi2(const PoseGraph& graph,
+                                             const std::vector<std::vector<size_t>>& groups) {
+  RequireNoLandmarks(graph, "the deleted-residual test");
+  std::vector<double> out(groups.size(), std::numeric_limits<double>::quiet_NaN());
+  const NormalEquations normal(graph);
+  if (normal.size() == 0) return out;
+  const Eigen::SparseMatrix<double> L = normal.llt().matrixL().nestedExpression();
+  const Eigen::VectorXi perm = normal.llt().permutationP().indices();
+  ForwardSolves solves(L, perm);
+  for (size_t g = 0; g < groups.size(); ++g) {
+    if (groups[g].empty()) continue;
+    const StackedGroup stacked = Stack(graph, normal, groups[g]);
+    const Eigen::Index rows = stacked.r.size();
+    Eigen::MatrixXd M = Eigen::MatrixXd::Identity(rows, rows);
+    if (!stacked.cols.empty()) M -= solves.Gram(stacked.cols, stacked.J.transpose());
+    out[g] = DeletedChi2(M, stacked.r);
+  }
+  return out;
+}
 
 std::vector<InnovationStat> InnovationChi2(const PoseGraph& graph, const std::vector<Edge>& candidates,
                                            double screen) {

@@ -30,6 +30,21 @@ namespace cairn {
 // about one factorisation, not one solve per edge.
 std::vector<double> DeletedResidualChi2(const PoseGraph& graph, const std::vector<size_t>& edges);
 
+// The same for groups of edges deleted together (each a list of indices
+// into graph.edges(), between-edges): r_G^T (I - J_G Sigma J_G^T)^{-1} r_G
+// over the group's stacked whitened residuals, Sigma the exact joint
+// covariance of every pose the group touches. For a linear problem, the fall
+// of the optimal chi2 when the whole group goes; a group of n right edges
+// is chi2 with 3n (2D) or 6n (3D) degrees of freedom. Wrong loop closures
+// that agree with each other hold a bend together that deleting any one of
+// them would not release: only the group's statistic sees it. NaN as above.
+//
+// Each group costs forward solves that walk the elimination tree from its
+// poses (their Gram matrix is J_G Sigma J_G^T); one factorisation serves
+// them all.
+std::vector<double> GroupDeletedResidualChi2(const PoseGraph& graph,
+                                             const std::vector<std::vector<size_t>>& groups);
+
 // For loop closures not in the graph (between-edges of its vertices): the
 // innovation statistic r^T (I + J Sigma J^T)^{-1} r, how much the optimal
 // chi2 would rise (linear problem) if the edge were added, with Sigma the

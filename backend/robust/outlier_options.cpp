@@ -17,8 +17,10 @@ bool OutlierRejectionOptions::IsValid(std::string* error) const {
     why = "GNC's mu_factor must exceed 1";
   else if (max_rounds < 1)
     why = "GNC needs at least one round (max_rounds)";
-  else if (inner_iterations < 0 || consistency_window < 0 || consistency_partners < 0)
-    why = "inner_iterations, consistency_window and consistency_partners must not be negative";
+  else if (inner_iterations < 0 || consistency_window < 0 || consistency_partners < 0 ||
+           group_window < 0)
+    why = "inner_iterations, consistency_window, consistency_partners and group_window must "
+          "not be negative";
   else if (!(restart_chi2_factor > 1))
     why = "restart_chi2_factor must exceed 1";
   else if (trusted_iterations < 0)

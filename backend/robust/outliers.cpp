@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <numeric>
 #include <stdexcept>
 
 #include "cairn/graph/chi2.h"
@@ -76,9 +77,9 @@ struct RejectionState {
   std::vector<size_t> closures;  // edges of `graph` that are loop closures
   PoseGraph work;                // its vertices hold the current estimate
   std::vector<double> w, r2;     // per loop closure: GNC's weight, chi2 at `work`
-  // Per edge of `graph`: rejected, and rejected by the verification (never
-  // taken back).
-  std::vector<bool> rejected, verified_out;
+  // Per edge of `graph`: rejected, rejected by the verification (never
+  // taken back by re-admission), and with a whole run (not even when it fits).
+  std::vector<bool> rejected, verified_out, run_out;
   PoseGraph inliers;  // `graph` without the rejected edges
   std::vector<size_t> kept;    // edges of `inliers` that are loop closures
   std::vector<size_t> origin;  // per edge of `inliers`, its index in `graph`
@@ -332,6 +333,140 @@ size_t TakeBackFitting(RejectionState& s) {
   return readmitted;
 }
 
+// The kept loop closures' ends (lower id first) and their order by them.
+void KeptEnds(const RejectionState& s, std::vector<std::pair<int64_t, int64_t>>* ends,
+              std::vector<size_t>* order) {
+  const size_t n = s.kept.size();
+  ends->resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Edge& e = s.inliers.edges()[s.kept[i]];
+    (*ends)[i] = {std::min(e.from, e.to), std::max(e.from, e.to)};
+  }
+  order->resize(n);
+  std::iota(order->begin(), order->end(), 0);
+  std::sort(order->begin(), order->end(),
+            [&](size_t a, size_t b) { return (*ends)[a] < (*ends)[b]; });
+}
+
+// Runs of kept loop closures, two or more long, as indices into s.kept: a
+// loop closure joins another's run when both its ends lie within
+// group_window ids of the other's (a place seen again from consecutive
+// poses; aliasing produces such runs too).
+std::vector<std::vector<size_t>> KeptRuns(const RejectionState& s,
+                                          const std::vector<std::pair<int64_t, int64_t>>& ends,
+                                          const std::vector<size_t>& order) {
+  const int64_t w = s.options.group_window;
+  const size_t n = ends.size();
+  std::vector<size_t> root(n);
+  std::iota(root.begin(), root.end(), 0);
+  auto find = [&root](size_t i) {
+    while (root[i] != i) i = root[i] = root[root[i]];
+    return i;
+  };
+  for (size_t a = 0; a < n; ++a)
+    for (size_t b = a + 1; b < n && ends[order[b]].first - ends[order[a]].first <= w; ++b)
+      if (std::abs(ends[order[b]].second - ends[order[a]].second) <= w)
+        root[find(order[a])] = find(order[b]);
+  std::vector<std::vector<size_t>> by_root(n), runs;
+  for (size_t i : order) by_root[find(i)].push_back(i);  // each run in id order
+  for (std::vector<size_t>& r : by_root)
+    if (r.size() >= 2) runs.push_back(std::move(r));
+  return runs;
+}
+
+// Whether a kept loop closure outside `run` joins the same two stretches
+// (both ends within `window` ids of a member's): the two then close a
+// short cycle, which the pairwise stage and GNC have tested already. A
+// wrong run that GNC keeps is the only link between its stretches.
+bool HasParallel(const std::vector<size_t>& run,
+                 const std::vector<std::pair<int64_t, int64_t>>& ends,
+                 const std::vector<size_t>& order, int64_t window) {
+  std::vector<size_t> members(run);
+  std::sort(members.begin(), members.end());
+  for (size_t i : run) {
+    auto it = std::lower_bound(order.begin(), order.end(), ends[i].first - window,
+                               [&](size_t k, int64_t lo) { return ends[k].first < lo; });
+    for (; it != order.end() && ends[*it].first <= ends[i].first + window; ++it)
+      if (std::abs(ends[*it].second - ends[i].second) <= window &&
+          !std::binary_search(members.begin(), members.end(), *it))
+        return true;
+  }
+  return false;
+}
+
+// After the verification rejected some: the rest re-solved, and loop
+// closures GNC rejected that fit again taken back.
+void ResolveAfterVerification(RejectionState& s) {
+  SolveInliersAgain(s);
+  const size_t readmitted = TakeBackFitting(s);
+  if (readmitted > 0) {
+    if (s.options.verbose)
+      std::fprintf(stderr, "verify: %zu rejected loop closures fit again: kept\n", readmitted);
+    SolveInliersAgain(s);
+  }
+}
+
+// The runs worth testing, as edges of s.inliers: those without a parallel
+// one, in pieces of at most kMaxRun (a corridor revisited end to end links
+// hundreds; the statistic's cost grows as the cube of the size), short
+// enough to qualify (the fall of chi2 cannot exceed chi2 itself).
+std::vector<std::vector<size_t>> RunsToTest(const RejectionState& s) {
+  constexpr size_t kMaxRun = 64;
+  const double chi2 = Chi2(s.inliers);
+  std::vector<std::pair<int64_t, int64_t>> ends;
+  std::vector<size_t> order;
+  KeptEnds(s, &ends, &order);
+  std::vector<std::vector<size_t>> runs;
+  for (const std::vector<size_t>& r : KeptRuns(s, ends, order)) {
+    if (HasParallel(r, ends, order, s.options.consistency_window)) continue;
+    for (size_t at = 0; at < r.size(); at += kMaxRun) {
+      std::vector<size_t> piece;
+      for (size_t i = at; i < std::min(r.size(), at + kMaxRun); ++i) piece.push_back(s.kept[r[i]]);
+      if (piece.size() >= 2 && static_cast<double>(piece.size()) * s.c2 < chi2)
+        runs.push_back(std::move(piece));
+    }
+  }
+  return runs;
+}
+
+// The run verification, when no single loop closure is worth deleting: of
+// the runs whose deletion lowers chi2 by more than their size times c^2
+// (the truncated cost is then lower without them), the one that releases
+// most beyond its own residuals goes whole. Returns whether one did.
+bool RejectWorstRun(RejectionState& s) {
+  if (s.options.group_window <= 0) return false;
+  const std::vector<std::vector<size_t>> edges = RunsToTest(s);
+  if (edges.empty()) return false;
+  const std::vector<double> gain = GroupDeletedResidualChi2(s.inliers, edges);
+  size_t worst = edges.size();
+  double worst_release = 0;
+  for (size_t r = 0; r < edges.size(); ++r) {
+    if (!(gain[r] > static_cast<double>(edges[r].size()) * s.c2)) continue;
+    double release = gain[r];
+    for (size_t k : edges[r]) release -= EdgeChi2(s.inliers, s.inliers.edges()[k]);
+    if (worst == edges.size() || release > worst_release) {
+      worst = r;
+      worst_release = release;
+    }
+  }
+  if (worst == edges.size()) return false;
+  if (s.options.verbose) {
+    const Edge& e = s.inliers.edges()[edges[worst].front()];
+    std::fprintf(stderr,
+                 "verify: the run of %zu loop closures from %lld-%lld: deleting it lowers chi2 "
+                 "by %.4g > %zu x %.4g: rejected\n",
+                 edges[worst].size(), static_cast<long long>(e.from),
+                 static_cast<long long>(e.to), gain[worst], edges[worst].size(), s.c2);
+  }
+  for (size_t k : edges[worst]) {
+    const size_t g = s.origin[k];
+    s.rejected[g] = s.verified_out[g] = s.run_out[g] = true;
+    ++s.out.verified;
+  }
+  ResolveAfterVerification(s);
+  return true;
+}
+
 // Verification. GNC's weights are decided one loop closure at a time, at
 // the estimate: a wrong loop closure that the trajectory has bent to fit
 // looks like a good one there. Deleting it would release that bend, and the
@@ -352,7 +487,16 @@ std::vector<double> Verify(RejectionState& s) {
       return {};
     }
     const size_t worst = WorstToDelete(s, gain);
-    if (worst == s.kept.size()) return gain;
+    if (worst == s.kept.size()) {
+      bool rejected_run = false;
+      try {
+        rejected_run = RejectWorstRun(s);
+      } catch (const std::runtime_error& e) {
+        if (options.verbose) std::fprintf(stderr, "run verification skipped: %s\n", e.what());
+      }
+      if (!rejected_run) return gain;
+      continue;
+    }
     const Edge& e = s.inliers.edges()[s.kept[worst]];
     if (options.verbose)
       std::fprintf(stderr,
@@ -364,13 +508,7 @@ std::vector<double> Verify(RejectionState& s) {
     s.rejected[k] = true;
     s.verified_out[k] = true;
     ++s.out.verified;
-    SolveInliersAgain(s);
-    const size_t readmitted = TakeBackFitting(s);
-    if (readmitted > 0) {
-      if (options.verbose)
-        std::fprintf(stderr, "verify: %zu rejected loop closures fit again: kept\n", readmitted);
-      SolveInliersAgain(s);
-    }
+    ResolveAfterVerification(s);
   }
   return {};
 }
@@ -474,11 +612,13 @@ size_t Readmit(RejectionState& s, double tail) {
 // at the optimum, against 0.26). Not the plain c^2 for all: a wrong loop
 // closure to intel's dangling end, which only odometry holds, fits within
 // it, and taken back bent that end by 2 m; it has no neighbour to agree.
+// Nor a run the verification rejected whole: its members each fit, alone,
+// a graph that bends easily, and together they would bend it again.
 void TakeBackAllFitting(RejectionState& s) {
   for (int pass = 0; pass < s.options.max_passes && s.out.solve.usable; ++pass) {
     size_t back = 0;
     for (size_t k = 0; k < s.graph.edges().size(); ++k)
-      if (s.rejected[k] &&
+      if (s.rejected[k] && !s.run_out[k] &&
           EdgeChi2(s.inliers, s.graph.edges()[k]) <= (s.trusted[k] ? s.c2 : s.gnc_c2)) {
         s.rejected[k] = false;
         ++back;
@@ -531,6 +671,7 @@ void RunGnc(RejectionState& s) {
   }
   s.rejected.assign(s.graph.edges().size(), false);
   s.verified_out.assign(s.graph.edges().size(), false);
+  s.run_out.assign(s.graph.edges().size(), false);
   for (size_t i = 0; i < s.closures.size(); ++i)
     if (s.w[i] < 0.5 && !(s.r2[i] <= s.gnc_c2)) s.rejected[s.closures[i]] = true;
 }

@@ -63,6 +63,12 @@ struct OutlierRejectionOptions {
   // would lower chi2 by more than the threshold (see SolveRejectingOutliers).
   bool verify = true;
   int max_verify_rounds = 100;
+  // ... and runs of kept loop closures (linked when both ends lie within
+  // group_window ids of another's), as a whole: a run whose deletion would
+  // lower chi2 by more than its size times the threshold goes (0: no such
+  // test). Aliased groups hold a bend together that no single deletion
+  // releases.
+  int group_window = 3;
   // After verification: take back rejected loop closures (chi2 within
   // readmit_reach c^2; infinity: all, as good ones to a stretch only they
   // held reach 1000 c^2 once out) whose innovation statistic is within c^2
@@ -117,6 +123,9 @@ using GraphSolver = std::function<SolveResult(PoseGraph& graph, int max_iteratio
 // it. While some kept loop closure's exceeds the threshold, the largest one
 // is rejected too and the rest re-solved: under the truncated cost, a loop
 // closure whose deletion saves more than c^2 costs more than leaving it out.
+// Then the same for runs of loop closures (group_window): aliased groups
+// bend the estimate together, so that deleting any one of them saves
+// little; a run whose deletion saves more than its size times c^2 goes.
 // Every rejected loop closure that fits the kept graph's solution comes
 // back, and the kept graph is solved to its optimum (final_solve). The
 // estimate of the last solve is left in `graph`; its edges are not changed.

@@ -277,6 +277,43 @@ TEST(Leverage, PredictsTheFallOfChi2WhenALoopClosureIsDeleted) {
   }
 }
 
+// A group's statistic is the fall of chi2 when all its edges go at once:
+// checked against re-solving without them, for groups of consecutive loop
+// closures and of loop closures far apart; a group of one is the single
+// edge's statistic.
+TEST(Leverage, PredictsTheFallOfChi2WhenAGroupIsDeleted) {
+  for (int dim : {2, 3}) {
+    PoseGraph g = Simulated(dim, dim == 2 ? 200 : 150, 22).noisy;
+    SolveWithCeres(g, QuietCeres());
+    std::vector<size_t> closures;
+    for (size_t k = 0; k < g.edges().size(); ++k)
+      if (g.edges()[k].kind == EdgeKind::kLoopClosure) closures.push_back(k);
+    ASSERT_GE(closures.size(), 12u);
+    const std::vector<std::vector<size_t>> groups = {
+        {closures[0]},
+        {closures[1], closures[2]},
+        {closures[3], closures[4], closures[5], closures[6]},
+        {closures[0], closures.back(), closures[closures.size() / 2]}};
+    const std::vector<double> predicted = GroupDeletedResidualChi2(g, groups);
+    EXPECT_NEAR(predicted[0], DeletedResidualChi2(g, {closures[0]})[0], 1e-9 * predicted[0]);
+    const double chi2 = Chi2(g);
+    for (size_t i = 0; i < groups.size(); ++i) {
+      const std::set<size_t> out(groups[i].begin(), groups[i].end());
+      PoseGraph without(dim);
+      for (const Vertex& v : g.vertices()) without.AddVertex(v.id, v.x, v.fixed);
+      for (size_t k = 0; k < g.edges().size(); ++k)
+        if (!out.count(k)) without.AddEdge(g.edges()[k]);
+      const double fall = chi2 - SolveWithCeres(without, QuietCeres()).final_chi2;
+      ASSERT_TRUE(std::isfinite(predicted[i]));
+      EXPECT_NEAR(predicted[i], fall, 0.02 * fall + 1e-6) << "dim " << dim << " group " << i;
+      // At least the group's own residuals: the rest had bent towards it.
+      double own = 0;
+      for (size_t k : groups[i]) own += EdgeChi2(g, g.edges()[k]);
+      EXPECT_GE(predicted[i], own * (1 - 1e-9));
+    }
+  }
+}
+
 TEST(Leverage, InnovationPredictsTheRiseOfChi2WhenALoopClosureIsAdded) {
   for (int dim : {2, 3}) {
     const PoseGraph full = Simulated(dim, dim == 2 ? 200 : 150, 23).noisy;

@@ -449,7 +449,18 @@ bool RejectWorstRun(RejectionState& s) {
       worst_release = release;
     }
   }
-  if (worst == edges.size()) return false;
+  if (worst == edges.size()) {
+    if (s.options.verbose) {
+      double most = 0;
+      for (size_t r = 0; r < edges.size(); ++r)
+        if (std::isfinite(gain[r]))
+          most = std::max(most, gain[r] / (static_cast<double>(edges[r].size()) * s.c2));
+      std::fprintf(stderr,
+                   "verify: %zu runs tested, none beyond its threshold (at most %.3g of it)\n",
+                   edges.size(), most);
+    }
+    return false;
+  }
   if (s.options.verbose) {
     const Edge& e = s.inliers.edges()[edges[worst].front()];
     std::fprintf(stderr,

@@ -303,18 +303,22 @@ void SolveInliersAgain(RejectionState& s) {
   s.out.solve = s.Solve(s.inliers, 0);
 }
 
-// Of the kept loop closures whose deletion lowers chi2 by more than c^2, the
-// one whose deletion releases most in the rest of the graph (the fall beyond
-// its own residual): good loop closures near a bend have large residuals
-// too, the wrong one holds it. kept.size() when there is none.
-size_t WorstToDelete(const RejectionState& s, const std::vector<double>& gain) {
-  size_t worst = s.kept.size();
+// Of the groups of kept loop closures (edges of s.inliers; `gain`, the fall
+// of chi2 when each goes) whose deletion lowers chi2 by more than their
+// size times c^2, the one whose deletion releases most in the rest of the
+// graph (the fall beyond its own residuals): good loop closures near a bend
+// have large residuals too, the wrong one holds it. groups.size() when
+// there is none.
+size_t WorstToDelete(const RejectionState& s, const std::vector<std::vector<size_t>>& groups,
+                     const std::vector<double>& gain) {
+  size_t worst = groups.size();
   double worst_release = 0;
-  for (size_t i = 0; i < s.kept.size(); ++i) {
-    if (!(gain[i] > s.c2)) continue;
-    const double release = gain[i] - EdgeChi2(s.inliers, s.inliers.edges()[s.kept[i]]);
-    if (worst == s.kept.size() || release > worst_release) {
-      worst = i;
+  for (size_t g = 0; g < groups.size(); ++g) {
+    if (!(gain[g] > static_cast<double>(groups[g].size()) * s.c2)) continue;
+    double release = gain[g];
+    for (size_t k : groups[g]) release -= EdgeChi2(s.inliers, s.inliers.edges()[k]);
+    if (worst == groups.size() || release > worst_release) {
+      worst = g;
       worst_release = release;
     }
   }
@@ -394,9 +398,16 @@ bool HasParallel(const std::vector<size_t>& run,
   return false;
 }
 
-// After the verification rejected some: the rest re-solved, and loop
-// closures GNC rejected that fit again taken back.
-void ResolveAfterVerification(RejectionState& s) {
+// The verification rejects these edges of s.inliers (`whole_run`: as a
+// run), then the rest is re-solved, and loop closures GNC rejected that fit
+// again are taken back.
+void RejectVerified(RejectionState& s, const std::vector<size_t>& edges, bool whole_run) {
+  for (size_t k : edges) {
+    const size_t g = s.origin[k];
+    s.rejected[g] = s.verified_out[g] = true;
+    if (whole_run) s.run_out[g] = true;
+    ++s.out.verified;
+  }
   SolveInliersAgain(s);
   const size_t readmitted = TakeBackFitting(s);
   if (readmitted > 0) {
@@ -438,17 +449,7 @@ bool RejectWorstRun(RejectionState& s) {
   const std::vector<std::vector<size_t>> edges = RunsToTest(s);
   if (edges.empty()) return false;
   const std::vector<double> gain = GroupDeletedResidualChi2(s.inliers, edges);
-  size_t worst = edges.size();
-  double worst_release = 0;
-  for (size_t r = 0; r < edges.size(); ++r) {
-    if (!(gain[r] > static_cast<double>(edges[r].size()) * s.c2)) continue;
-    double release = gain[r];
-    for (size_t k : edges[r]) release -= EdgeChi2(s.inliers, s.inliers.edges()[k]);
-    if (worst == edges.size() || release > worst_release) {
-      worst = r;
-      worst_release = release;
-    }
-  }
+  const size_t worst = WorstToDelete(s, edges, gain);
   if (worst == edges.size()) {
     if (s.options.verbose) {
       double most = 0;
@@ -469,12 +470,7 @@ bool RejectWorstRun(RejectionState& s) {
                  edges[worst].size(), static_cast<long long>(e.from),
                  static_cast<long long>(e.to), gain[worst], edges[worst].size(), s.c2);
   }
-  for (size_t k : edges[worst]) {
-    const size_t g = s.origin[k];
-    s.rejected[g] = s.verified_out[g] = s.run_out[g] = true;
-    ++s.out.verified;
-  }
-  ResolveAfterVerification(s);
+  RejectVerified(s, edges[worst], true);
   return true;
 }
 
@@ -497,8 +493,10 @@ std::vector<double> Verify(RejectionState& s) {
       if (options.verbose) std::fprintf(stderr, "verification skipped: %s\n", e.what());
       return {};
     }
-    const size_t worst = WorstToDelete(s, gain);
-    if (worst == s.kept.size()) {
+    std::vector<std::vector<size_t>> singles;
+    for (size_t k : s.kept) singles.push_back({k});
+    const size_t worst = WorstToDelete(s, singles, gain);
+    if (worst == singles.size()) {
       bool rejected_run = false;
       try {
         rejected_run = RejectWorstRun(s);
@@ -515,11 +513,7 @@ std::vector<double> Verify(RejectionState& s) {
                    "by %.4g > %.4g: rejected\n",
                    static_cast<long long>(e.from), static_cast<long long>(e.to),
                    EdgeChi2(s.inliers, e), gain[worst], s.c2);
-    const size_t k = s.origin[s.kept[worst]];
-    s.rejected[k] = true;
-    s.verified_out[k] = true;
-    ++s.out.verified;
-    ResolveAfterVerification(s);
+    RejectVerified(s, singles[worst], false);
   }
   return {};
 }

@@ -249,6 +249,15 @@ TEST(Gnc, ChiSquaredQuantilesInTheFarTail) {
 
 // The deleted-residual statistic against the real thing: delete the edge,
 // re-solve, and see chi2 fall.
+// The fall of chi2 when these edges are deleted and the rest re-solved.
+double FallWithout(const PoseGraph& g, const std::set<size_t>& out) {
+  PoseGraph without(g.dimension());
+  for (const Vertex& v : g.vertices()) without.AddVertex(v.id, v.x, v.fixed);
+  for (size_t k = 0; k < g.edges().size(); ++k)
+    if (!out.count(k)) without.AddEdge(g.edges()[k]);
+  return Chi2(g) - SolveWithCeres(without, QuietCeres()).final_chi2;
+}
+
 TEST(Leverage, PredictsTheFallOfChi2WhenALoopClosureIsDeleted) {
   for (int dim : {2, 3}) {
     PoseGraph g = Simulated(dim, dim == 2 ? 200 : 150, 21).noisy;
@@ -259,13 +268,8 @@ TEST(Leverage, PredictsTheFallOfChi2WhenALoopClosureIsDeleted) {
     ASSERT_GE(closures.size(), 10u);
     closures.resize(10);
     const std::vector<double> predicted = DeletedResidualChi2(g, closures);
-    const double chi2 = Chi2(g);
     for (size_t i = 0; i < closures.size(); ++i) {
-      PoseGraph without(dim);
-      for (const Vertex& v : g.vertices()) without.AddVertex(v.id, v.x, v.fixed);
-      for (size_t k = 0; k < g.edges().size(); ++k)
-        if (k != closures[i]) without.AddEdge(g.edges()[k]);
-      const double fall = chi2 - SolveWithCeres(without, QuietCeres()).final_chi2;
+      const double fall = FallWithout(g, {closures[i]});
       ASSERT_TRUE(std::isfinite(predicted[i]));
       EXPECT_GT(fall, 0);
       // Exact for a linear problem; these are nearly linear.
@@ -296,14 +300,8 @@ TEST(Leverage, PredictsTheFallOfChi2WhenAGroupIsDeleted) {
         {closures[0], closures.back(), closures[closures.size() / 2]}};
     const std::vector<double> predicted = GroupDeletedResidualChi2(g, groups);
     EXPECT_NEAR(predicted[0], DeletedResidualChi2(g, {closures[0]})[0], 1e-9 * predicted[0]);
-    const double chi2 = Chi2(g);
     for (size_t i = 0; i < groups.size(); ++i) {
-      const std::set<size_t> out(groups[i].begin(), groups[i].end());
-      PoseGraph without(dim);
-      for (const Vertex& v : g.vertices()) without.AddVertex(v.id, v.x, v.fixed);
-      for (size_t k = 0; k < g.edges().size(); ++k)
-        if (!out.count(k)) without.AddEdge(g.edges()[k]);
-      const double fall = chi2 - SolveWithCeres(without, QuietCeres()).final_chi2;
+      const double fall = FallWithout(g, {groups[i].begin(), groups[i].end()});
       ASSERT_TRUE(std::isfinite(predicted[i]));
       EXPECT_NEAR(predicted[i], fall, 0.02 * fall + 1e-6) << "dim " << dim << " group " << i;
       // At least the group's own residuals: the rest had bent towards it.

@@ -19,7 +19,7 @@ namespace cairn::tools {
 namespace {
 
 struct ReplayArgs {
-  std::string in, json, solver = "gn";
+  std::string in, json, steps, solver = "gn";
   int every = 1;
   bool quiet = false, full = false;
   PartialUpdateOptions partial;
@@ -79,9 +79,30 @@ Json ReplayJson(const ReplayArgs& a, const ReplayResult& r, double batch_chi2) {
   PutNumber(j, "final_solve_s", r.final_time_s);
   PutNumber(j, "batch_chi2", batch_chi2);
   j["refactorizations"] = r.refactorizations;
+  Json by;
+  for (size_t k = 1; k < r.refactorizations_by.size(); ++k)
+    by[ToString(static_cast<RebuildReason>(k))] = r.refactorizations_by[k];
+  j["refactorizations_by_reason"] = by;
+  PutNumber(j, "refactorization_steps_s", r.refactorization_steps_s);
+  j["retried_steps"] = r.retried;
   j["whole_solves"] = r.whole_solves;
   j["relinearized_poses"] = r.relinearized;
   return j;
+}
+
+// One line a step: where the time went, for plots of step time against the
+// graph's size.
+void WriteSteps(std::ostream& os, const ReplayResult& r) {
+  os << "step,poses,step_s,cpu_s,new_edges,relinearized_poses,solved_unknowns,"
+        "fresh_factorization,retried\n";
+  char line[256];
+  for (size_t k = 0; k < r.step_s.size(); ++k) {
+    const UpdateResult& u = r.step_updates[k];
+    std::snprintf(line, sizeof line, "%zu,%zu,%.9f,%.9f,%d,%d,%d,%s,%d\n", k + 1, r.step_poses[k],
+                  r.step_s[k], r.step_cpu_s[k], u.new_edges, u.relinearized_vertices,
+                  u.solved_unknowns, u.refactorized ? ToString(u.reason) : "", u.retried);
+    os << line;
+  }
 }
 
 void PrintSummary(const ReplayArgs& a, const ReplayResult& r, double batch_chi2) {
@@ -95,9 +116,15 @@ void PrintSummary(const ReplayArgs& a, const ReplayResult& r, double batch_chi2)
   std::printf("CPU time: median %.3f ms, p99 %.3f ms, total %.3f s\n",
               1e3 * Percentile(r.step_cpu_s, 0.5), 1e3 * Percentile(r.step_cpu_s, 0.99), cpu);
   std::printf("total %.3f s; chi2 after the last step %.10g\n", r.total_s, r.replay_chi2);
-  if (a.solver == "gn" && !a.full)
-    std::printf("fresh factorisations %zu, whole solves %zu, poses re-linearised %zu\n",
-                r.refactorizations, r.whole_solves, r.relinearized);
+  if (a.solver == "gn" && !a.full) {
+    std::printf("fresh factorisations %zu (%.3f s of steps; ", r.refactorizations,
+                r.refactorization_steps_s);
+    for (size_t k = 1; k < r.refactorizations_by.size(); ++k)
+      std::printf("%s%s %zu", k > 1 ? ", " : "", ToString(static_cast<RebuildReason>(k)),
+                  r.refactorizations_by[k]);
+    std::printf("), refused steps taken again %zu, whole solves %zu, poses re-linearised %zu\n",
+                r.retried, r.whole_solves, r.relinearized);
+  }
   const double rel = batch_chi2 != 0 ? (r.final_chi2 - batch_chi2) / batch_chi2 : 0;
   std::printf("final chi2 %.10g (exact solve %.3f s), batch %.10g, relative difference %.3g\n",
               r.final_chi2, r.final_time_s, batch_chi2, rel);
@@ -121,6 +148,9 @@ int RunReplay(int argc, char** argv) {
   args.Option("json", &a.json, "FILE", "also write the figures as JSON (keys steps, "
               "median_step_s, p90_step_s, p99_step_s, max_step_s, total_s, final_chi2, batch_chi2; "
               "the steps' process CPU time too)");
+  args.Option("steps", &a.steps, "FILE.csv", "also write one line a step (poses fed, wall and "
+              "CPU seconds, new edges, poses re-linearised, unknowns solved, why a fresh "
+              "factorisation was made, a refused step taken again)");
   args.Flag("full", &a.full, "gn: re-solve the whole graph at each step (Optimize) rather "
             "than update it partially");
   args.Flag("quiet", &a.quiet, "no progress lines");
@@ -150,6 +180,7 @@ int RunReplay(int argc, char** argv) {
   CommandOutputs outputs;
   outputs.Input(a.in);
   outputs.Output(a.json);
+  outputs.Output(a.steps, ".csv");
   outputs.Check();
 
   PoseGraph graph = ReadInputGraph(a.in);
@@ -170,6 +201,7 @@ int RunReplay(int argc, char** argv) {
     const std::string text = DumpJson(ReplayJson(a, r, batch.final_chi2));
     outputs.Write(a.json, [&](std::ostream& os) { os << text; });
   }
+  if (!a.steps.empty()) outputs.Write(a.steps, [&](std::ostream& os) { WriteSteps(os, r); });
   outputs.Commit();
   return 0;
 }

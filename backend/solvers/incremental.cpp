@@ -206,11 +206,17 @@ UpdateResult IncrementalOptimizer::Update() {
   // definite, a graph partial updates do not cover): once more from a fresh
   // linearisation at the estimate before it, then the whole solve.
   if (!partial_->Update(&result)) {
+    const UpdateResult refused = result;
     partial_->Invalidate();
     if (!partial_->Update(&result)) {
       Optimize(SolverKind::kGaussNewton);
       result.exact = true;
     }
+    // The step's own edges and work, which the refused attempt took in.
+    result.new_edges += refused.new_edges;
+    result.relinearized_vertices += refused.relinearized_vertices;
+    result.solved_unknowns += refused.solved_unknowns;
+    result.retried += refused.retried;
   }
   result.time_s = Seconds(start);
   return result;

@@ -2,7 +2,6 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <Eigen/SparseCore>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -18,6 +17,18 @@
 #include "cairn/solvers/graph_factors.h"
 
 namespace cairn {
+
+const char* ToString(RebuildReason reason) {
+  switch (reason) {
+    case RebuildReason::kNone: return "none";
+    case RebuildReason::kStart: return "start";
+    case RebuildReason::kRoom: return "room";
+    case RebuildReason::kFill: return "fill";
+    case RebuildReason::kGauge: return "gauge";
+    case RebuildReason::kRefused: return "refused";
+  }
+  return "?";
+}
 
 using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
@@ -281,27 +292,100 @@ void PartialUpdater::PlaceVariables(const std::vector<bool>& held) {
 // The augmented normal matrix [H g; g^T c] at the linearisation points,
 // upper triangle, with the reserved blocks as identity and c one above
 // chi2 so that the last pivot stays positive even where the residuals lie
-// in J's range.
+// in J's range. Written straight into compressed columns from the block
+// pattern (each edge adds to its two diagonal blocks, the block between
+// them and its rows of g): a list of every scalar product, sorted and
+// summed, cost as much as the factorisation itself.
 bool PartialUpdater::AssembleAndFactorize() {
-  std::vector<Eigen::Triplet<double>> t;
-  t.reserve(graph_->edges().size() * static_cast<size_t>(d_ * (4 * d_ + 3)) + cap_ * d_);
-  for (size_t e = 0; e < graph_->edges().size(); ++e) {
-    Columns c;
-    AppendColumns(e, &c);
-    // Each column is one row of J (with r): its outer product, upper part.
-    for (int k = 0; k < c.k; ++k)
-      for (int x = c.p[k]; x < c.p[k + 1]; ++x)
-        for (int y = x; y < c.p[k + 1]; ++y) t.emplace_back(c.i[x], c.i[y], c.x[x] * c.x[y]);
+  NormalPattern pattern = PlanNormalPattern();
+  std::vector<double> x(pattern.rows.size(), 0.0);
+  const auto& edges = graph_->edges();
+  for (size_t e = 0; e < edges.size(); ++e) AddEdgeTerms(e, pattern, &x);
+  const int d = d_;
+  for (int b = used_; b < cap_; ++b)
+    for (int t = 0; t < d; ++t) x[pattern.col_ptr[b * d + t + 1] - 1] = 1.0;
+  x.back() += 1.0;
+  return factor_->Factorize(n_ + 1, pattern.col_ptr, pattern.rows, x);
+}
+
+// Block column c of H's upper triangle holds the blocks of the poses
+// before c that share an edge with it (ascending), then its diagonal block;
+// the gradient's column holds every placed unknown, then c.
+PartialUpdater::NormalPattern PartialUpdater::PlanNormalPattern() const {
+  const auto& edges = graph_->edges();
+  std::vector<std::pair<int, int>> pairs;  // (column block, row block), row < column
+  pairs.reserve(edges.size());
+  for (const Edge& edge : edges) {
+    if (edge.IsPrior()) continue;
+    const int a = slot_[graph_->VertexIndex(edge.from)], b = slot_[graph_->VertexIndex(edge.to)];
+    if (a >= 0 && b >= 0 && a != b) pairs.emplace_back(std::max(a, b), std::min(a, b));
   }
-  for (int s = used_ * d_; s < n_; ++s) t.emplace_back(s, s, 1.0);
-  t.emplace_back(rhs_, rhs_, 1.0);
-  Eigen::SparseMatrix<double> a(n_ + 1, n_ + 1);
-  a.setFromTriplets(t.begin(), t.end());
-  a.makeCompressed();
-  const std::vector<int> p(a.outerIndexPtr(), a.outerIndexPtr() + n_ + 2);
-  const std::vector<int> i(a.innerIndexPtr(), a.innerIndexPtr() + a.nonZeros());
-  const std::vector<double> x(a.valuePtr(), a.valuePtr() + a.nonZeros());
-  return factor_->Factorize(n_ + 1, p, i, x);
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  NormalPattern pattern;
+  pattern.block_start.assign(cap_ + 1, 0);
+  for (const auto& [c, r] : pairs) ++pattern.block_start[c + 1];
+  for (int c = 0; c < cap_; ++c) pattern.block_start[c + 1] += pattern.block_start[c];
+  pattern.block_rows.resize(pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) pattern.block_rows[k] = pairs[k].second;
+  const int d = d_, placed = used_ * d_;
+  pattern.col_ptr.assign(n_ + 2, 0);
+  for (int c = 0; c < cap_; ++c) {
+    const int above = d * (pattern.block_start[c + 1] - pattern.block_start[c]);
+    for (int t = 0; t < d; ++t) pattern.col_ptr[c * d + t + 1] = above + t + 1;
+  }
+  pattern.col_ptr[n_ + 1] = placed + 1;
+  for (int j = 0; j <= n_; ++j) pattern.col_ptr[j + 1] += pattern.col_ptr[j];
+  pattern.rows.resize(pattern.col_ptr[n_ + 1]);
+  for (int c = 0; c < cap_; ++c)
+    for (int t = 0; t < d; ++t) {
+      int* out = &pattern.rows[pattern.col_ptr[c * d + t]];
+      for (int k = pattern.block_start[c]; k < pattern.block_start[c + 1]; ++k)
+        for (int u = 0; u < d; ++u) *out++ = pattern.block_rows[k] * d + u;
+      for (int u = 0; u <= t; ++u) *out++ = c * d + u;
+    }
+  for (int i = 0; i <= placed; ++i) pattern.rows[pattern.col_ptr[n_] + i] = i < placed ? i : rhs_;
+  return pattern;
+}
+
+// Edge e's J^T J and J^T r (its whitened Jacobian and residual at the
+// linearisation points), with r^T r in the gradient's diagonal entry.
+void PartialUpdater::AddEdgeTerms(size_t e, const NormalPattern& pattern,
+                                  std::vector<double>* values) const {
+  const Edge& edge = graph_->edges()[e];
+  const int d = d_;
+  int block[2] = {slot_[graph_->VertexIndex(edge.from)], -1};
+  if (!edge.IsPrior()) block[1] = slot_[graph_->VertexIndex(edge.to)];
+  const double* j = &jr_[e * stride_];  // d x 2d, row-major
+  const double* r = j + 2 * d * d;
+  // Row t of J, column c of the block at end k.
+  auto jac = [&](int t, int k, int c) { return j[t * 2 * d + k * d + c]; };
+  double* x = values->data();
+  const int* cp = pattern.col_ptr.data();
+  const int g = cp[n_];  // the gradient's column
+  for (int k = 0; k < 2; ++k) {
+    const int b = block[k];
+    if (b < 0) continue;
+    const int above = pattern.block_start[b + 1] - pattern.block_start[b];
+    for (int col = 0; col < d; ++col) {
+      double* column = &x[cp[b * d + col] + above * d];
+      for (int row = 0; row <= col; ++row)
+        for (int t = 0; t < d; ++t) column[row] += jac(t, k, row) * jac(t, k, col);
+      for (int t = 0; t < d; ++t) x[g + b * d + col] += jac(t, k, col) * r[t];
+    }
+  }
+  for (int t = 0; t < d; ++t) x[cp[n_ + 1] - 1] += r[t] * r[t];
+  if (block[0] < 0 || block[1] < 0 || block[0] == block[1]) return;
+  // The block between the two ends, in the later one's column.
+  const int lo = block[0] < block[1] ? 0 : 1, hi = 1 - lo;
+  const int* first = &pattern.block_rows[pattern.block_start[block[hi]]];
+  const int* last = &pattern.block_rows[pattern.block_start[block[hi] + 1]];
+  const int q = static_cast<int>(std::lower_bound(first, last, block[lo]) - first);
+  for (int col = 0; col < d; ++col) {
+    double* column = &x[cp[block[hi] * d + col] + q * d];
+    for (int row = 0; row < d; ++row)
+      for (int t = 0; t < d; ++t) column[row] += jac(t, lo, row) * jac(t, hi, col);
+  }
 }
 
 void PartialUpdater::ResetTree() {
@@ -320,6 +404,8 @@ void PartialUpdater::ResetTree() {
 bool PartialUpdater::Rebuild(UpdateResult* out) {
   valid_ = false;
   out->refactorized = true;
+  out->reason = reason_;
+  reason_ = RebuildReason::kRefused;  // unless Update says otherwise before the next
   if (!Covers(*graph_)) return false;
   const GraphGauge gauge = ComputeGauge(*graph_);
   const auto& vertices = graph_->vertices();
@@ -363,10 +449,16 @@ long PartialUpdater::PathEntries(int j) const {
   return entries;
 }
 
-// The poses waiting for re-linearisation, the farthest moved first, as many
-// as the budget of factor entries allows (at least one): a loop closure
-// that moves hundreds of poses spreads their re-linearisation over the
-// next steps instead of costing one step a whole refactorisation.
+// The poses waiting for re-linearisation, the farthest moved first, each
+// whose downdates and updates fit in what is left of the budget: a loop
+// closure that moves hundreds of poses spreads their re-linearisation over
+// the next steps instead of costing one step a whole refactorisation. A
+// pose deep in the elimination tree, whose path alone is over the budget,
+// waits for the next fresh factorisation (or for a refused step, which
+// re-linearises what it moved), off the queue: taking it anyway, one a
+// step, made every step cost a path that grows with the graph (6 ms a step
+// at 50,000 poses against 1 ms at 10,000, docs/benchmarks.md), and
+// weighing it again at every step, a queue that grows with it.
 std::vector<int> PartialUpdater::ChooseRelinearization() {
   std::vector<std::pair<double, int>> waiting;
   for (int v : relinearize_) {
@@ -376,24 +468,40 @@ std::vector<int> PartialUpdater::ChooseRelinearization() {
     for (int c = 0; c < d_; ++c) largest = std::max(largest, std::abs(step[c]));
     if (largest > relinearize_threshold_) waiting.emplace_back(-largest, v);
   }
-  std::sort(waiting.begin(), waiting.end());
+  const size_t weighed = std::min(waiting.size(), static_cast<size_t>(kRelinearizeCandidates));
+  std::partial_sort(waiting.begin(), waiting.begin() + weighed, waiting.end());
   std::vector<int> chosen;
   relinearize_.clear();
   long spent = 0;
-  for (const auto& [m, v] : waiting) {
-    if (spent < relinearize_budget_) {
-      spent += 2L * d_ * static_cast<long>(edges_of_[v].size()) * PathEntries(slot_[v] * d_);
-      chosen.push_back(v);
+  for (size_t k = 0; k < waiting.size(); ++k) {
+    const int v = waiting[k].second;
+    waiting_[v] = 1;
+    if (k >= weighed || spent >= relinearize_budget_) {
+      relinearize_.push_back(v);
       continue;
     }
-    relinearize_.push_back(v);
-    waiting_[v] = 1;
+    const long cost =
+        2L * d_ * static_cast<long>(edges_of_[v].size()) * PathEntries(slot_[v] * d_);
+    if (spent + cost <= relinearize_budget_) {
+      spent += cost;
+      chosen.push_back(v);
+      waiting_[v] = 0;
+    } else if (cost <= relinearize_budget_) {
+      relinearize_.push_back(v);  // next time
+    }  // else parked (still marked waiting) until the next fresh factorisation
   }
   return chosen;
 }
 
 void PartialUpdater::CollectRelinearization(Columns* up, Columns* down, UpdateResult* out) {
   const std::vector<int> chosen = ChooseRelinearization();
+  Relinearize(chosen, up, down);
+  out->relinearized_vertices = static_cast<int>(chosen.size());
+}
+
+// The edges of the chosen poses re-linearised at the poses' estimates: the
+// terms they added at the old points downdated, the new ones updated.
+void PartialUpdater::Relinearize(const std::vector<int>& chosen, Columns* up, Columns* down) {
   std::vector<int> edges;
   edge_stamp_.resize(graph_->edges().size(), 0);
   for (int v : chosen)
@@ -412,7 +520,6 @@ void PartialUpdater::CollectRelinearization(Columns* up, Columns* down, UpdateRe
     Linearize(e);
     AppendColumns(e, up);
   }
-  out->relinearized_vertices = static_cast<int>(chosen.size());
 }
 
 // New poses take the next reserved blocks: their identity comes out (a
@@ -498,7 +605,7 @@ void PartialUpdater::BackSubstitute(UpdateResult* out) {
       for (int c : children_[j])
         if (done_[c] != round_) heap.push(c);
   }
-  out->solved_unknowns = solved;
+  out->solved_unknowns += solved;
 }
 
 double PartialUpdater::ChangedCost() {
@@ -574,12 +681,16 @@ bool PartialUpdater::Update(UpdateResult* out) {
     for (size_t e = edges_in_; e < edges.size() && !rebuild_; ++e) {
       if (!TakeInGauge(edges[e])) {
         rebuild_ = true;
+        reason_ = RebuildReason::kGauge;
         break;
       }
       for (int64_t id : {edges[e].from, edges[e].to})
         fresh += slot_[graph_->VertexIndex(id)] == -1;
     }
-    if (used_ + fresh > cap_) rebuild_ = true;
+    if (!rebuild_ && used_ + fresh > cap_) {
+      rebuild_ = true;
+      reason_ = RebuildReason::kRoom;
+    }
   }
   if (!valid_ || rebuild_) {
     ok = Rebuild(out);
@@ -590,7 +701,10 @@ bool PartialUpdater::Update(UpdateResult* out) {
     out->factor_nonzeros = factor_->NonZeros();
     const double bound = std::max(static_cast<double>(fill_bound_),
                                   fill_fraction_ * static_cast<double>(nnz_at_build_));
-    if (static_cast<double>(out->factor_nonzeros - nnz_at_build_) > bound) rebuild_ = true;
+    if (static_cast<double>(out->factor_nonzeros - nnz_at_build_) > bound) {
+      rebuild_ = true;
+      reason_ = RebuildReason::kFill;
+    }
   }
   out->time_s = Seconds(start);
   return ok;
@@ -601,14 +715,40 @@ bool PartialUpdater::Modify(UpdateResult* out) {
   Columns up, down;
   CollectRelinearization(&up, &down, out);
   TakeInNewEdges(&up, &down, out);
-  // Updates first: every partial downdate then leaves the matrix above the
-  // final one, positive definite whenever that is.
+  edges_in_ = graph_->edges().size();
+  if (!ModifyAndSolve(up, down, out)) return false;
+  if (WriteEstimates()) return true;
+  // Refused: the kept linearisation is too far from where the step went
+  // (a long loop closed). The poses it moved are re-linearised where they
+  // stand and the step taken again, unless that costs more than ordering
+  // and factorising afresh, which the caller then does.
+  std::vector<int> moved;
+  long cost = 0;
+  for (int b : changed_blocks_) {
+    const int v = vertex_at_[b];
+    if (v < 0) continue;
+    moved.push_back(v);
+    cost += 2L * d_ * static_cast<long>(edges_of_[v].size()) * PathEntries(b * d_);
+    if (cost > kRetryCostPerFactorEntry * factor_->NonZeros()) return false;
+  }
+  ++round_;
+  Columns up_again, down_again;
+  Relinearize(moved, &up_again, &down_again);
+  out->relinearized_vertices += static_cast<int>(moved.size());
+  ++out->retried;
+  valid_ = true;
+  return ModifyAndSolve(up_again, down_again, out) && WriteEstimates();
+}
+
+// Applies the columns to the factor (updates first: every partial downdate
+// then leaves the matrix above the final one, positive definite whenever
+// that is) and solves again where they reach.
+bool PartialUpdater::ModifyAndSolve(const Columns& up, const Columns& down, UpdateResult* out) {
   if (!factor_->Modify(true, up.k, up.p, up.i, up.x) ||
       !factor_->Modify(false, down.k, down.p, down.i, down.x)) {
     valid_ = false;
     return false;
   }
-  edges_in_ = graph_->edges().size();
   marked_.clear();
   for (int c = 0; c < up.k; ++c) MarkPath(up.First(c));
   for (int c = 0; c < down.k; ++c) MarkPath(down.First(c));
@@ -618,7 +758,6 @@ bool PartialUpdater::Modify(UpdateResult* out) {
       return false;
     }
   BackSubstitute(out);
-  if (!WriteEstimates()) return false;
   return true;
 }
 

@@ -35,8 +35,12 @@ struct PartialUpdateOptions {
   double relinearize_threshold = 0.1;
   // How much factor work (entries of L that the re-linearised edges'
   // downdates and updates pass) one Update may spend re-linearising; the
-  // farthest-moved poses go first, the rest wait for the next Updates.
-  long relinearize_budget = 2000000;
+  // farthest-moved poses that fit go first, the rest wait for the next
+  // Updates, and a pose whose own work is over it for the next fresh
+  // factorisation. Re-linearising was most of a step's work: 2e6 made the
+  // median step 2-3 times dearer than 5e5 on 2D graphs of 10,000 poses,
+  // for no better estimate (docs/benchmarks.md).
+  long relinearize_budget = 500000;
   // Solving again stops in a subtree of the elimination tree where the
   // step changed by no more than this (iSAM2's wildfire threshold); 0
   // solves every unknown the change reaches.
@@ -65,15 +69,33 @@ struct PartialUpdateOptions {
 // city10000 a third of the updates raise it by up to 10%); MIT's long loops
 // raised it tenfold and more, and the estimate diverged (chi2 2.8e11).
 constexpr double kAcceptedCostGrowth = 3.0;
+// A refused step is first taken again from a fresh linearisation of the
+// poses it moved, when re-linearising them passes at most this many factor
+// entries per entry of the factor (an update or downdate column passes its
+// path in the elimination tree; a fresh factorisation costs far more than
+// one pass over the factor).
+constexpr double kRetryCostPerFactorEntry = 2.0;
+// How many of the farthest-moved poses one Update weighs for
+// re-linearisation (each costs a walk up its path to find its price).
+constexpr int kRelinearizeCandidates = 64;
+
+// Why an Update ordered and factorised afresh: the first update (or one
+// after a whole solve moved the estimate), the reserved columns used up,
+// the fill past its bound, the gauge that may move, or a partial step that
+// was refused (its cost rose, or the factor stopped being positive definite).
+enum class RebuildReason { kNone, kStart, kRoom, kFill, kGauge, kRefused };
+const char* ToString(RebuildReason reason);
 
 // What one Update did, for benchmarks and tests.
 struct UpdateResult {
   double time_s = 0;
   bool refactorized = false;  // a fresh ordering and factorisation
+  RebuildReason reason = RebuildReason::kNone;  // why, when refactorized
   bool exact = false;         // fell back to a full Optimize (graphs partial updates do not cover)
   int new_edges = 0;
   int relinearized_vertices = 0;  // whose edges were re-linearised
   int solved_unknowns = 0;        // scalar unknowns solved again
+  int retried = 0;  // refused steps taken again after re-linearising the poses they moved
   long factor_nonzeros = 0;
 };
 
@@ -97,13 +119,23 @@ class PartialUpdater {
   bool Update(UpdateResult* out);
   // The estimate was moved by someone else (a full solve): the next Update
   // linearises everything afresh there.
-  void Invalidate() { valid_ = false; }
+  void Invalidate() {
+    if (valid_) reason_ = RebuildReason::kStart;  // a refusal keeps its own reason
+    valid_ = false;
+  }
 
  private:
   struct Columns;
+  // The augmented normal matrix's pattern: H's block columns (the row
+  // blocks above each diagonal block), and its scalar compressed columns.
+  struct NormalPattern {
+    std::vector<int> block_start, block_rows, col_ptr, rows;
+  };
   bool Rebuild(UpdateResult* out);
   void PlaceVariables(const std::vector<bool>& held);
   bool AssembleAndFactorize();
+  NormalPattern PlanNormalPattern() const;
+  void AddEdgeTerms(size_t e, const NormalPattern& pattern, std::vector<double>* values) const;
   void ResetTree();
   void ComputeComponents();
   bool TakeInGauge(const Edge& e);
@@ -115,8 +147,10 @@ class PartialUpdater {
   long PathEntries(int j) const;
   std::vector<int> ChooseRelinearization();
   void CollectRelinearization(Columns* up, Columns* down, UpdateResult* out);
+  void Relinearize(const std::vector<int>& chosen, Columns* up, Columns* down);
   void TakeInNewEdges(Columns* up, Columns* down, UpdateResult* out);
   bool Modify(UpdateResult* out);
+  bool ModifyAndSolve(const Columns& up, const Columns& down, UpdateResult* out);
   void MarkPath(int j);
   void Reparent(int j, int p);
   void BackSubstitute(UpdateResult* out);
@@ -134,6 +168,7 @@ class PartialUpdater {
   int d_, p_, stride_;
   bool valid_ = false;
   bool rebuild_ = true;
+  RebuildReason reason_ = RebuildReason::kStart;  // of the next rebuild
 
   std::unique_ptr<UpdatableCholesky> factor_;
   int n_ = 0, rhs_ = 0;      // unknowns (reserved included); the gradient's row

@@ -83,18 +83,23 @@ void FeedPose(const PoseGraph& source, IncrementalOptimizer& opt, const Vertex& 
   for (size_t e : edges) opt.AddEdge(source.edges()[e]);
 }
 
-void Step(IncrementalOptimizer& opt, ReplayMode mode, ReplayResult* result) {
+// Returns whether the step ordered and factorised afresh.
+bool Step(IncrementalOptimizer& opt, ReplayMode mode, ReplayResult* result) {
   switch (mode) {
     case ReplayMode::kPartial: {
       const UpdateResult u = opt.Update();
+      result->step_updates.back() = u;
       result->refactorizations += u.refactorized;
+      result->retried += static_cast<size_t>(u.retried);
+      if (u.refactorized) ++result->refactorizations_by[static_cast<size_t>(u.reason)];
       result->whole_solves += u.exact;
       result->relinearized += static_cast<size_t>(u.relinearized_vertices);
-      break;
+      return u.refactorized;
     }
     case ReplayMode::kGaussNewton: opt.Optimize(SolverKind::kGaussNewton); break;
     case ReplayMode::kCeres: opt.Optimize(SolverKind::kCeres); break;
   }
+  return false;
 }
 
 double ProcessCpuSeconds() {
@@ -130,9 +135,12 @@ ReplayResult Replay(const PoseGraph& graph, const ReplayOptions& options) {
     const bool last = k + 1 == plan.order.size();
     if (!last && (k + 1) % static_cast<size_t>(options.every) != 0) continue;
     // A pose no edge has reached yet is no unknown: nothing to solve.
-    if (!opt.graph().edges().empty()) Step(opt, options.mode, &result);
+    result.step_poses.push_back(k + 1);
+    result.step_updates.emplace_back();
+    const bool fresh = !opt.graph().edges().empty() && Step(opt, options.mode, &result);
     const auto now = std::chrono::steady_clock::now();
     result.step_s.push_back(std::chrono::duration<double>(now - step_start).count());
+    if (fresh) result.refactorization_steps_s += result.step_s.back();
     step_start = now;
     const double cpu_now = ProcessCpuSeconds();
     result.step_cpu_s.push_back(cpu_now - cpu_start);

@@ -7,6 +7,7 @@
 
 #include <cstddef>
 #include <functional>
+#include <array>
 #include <vector>
 
 #include "cairn/graph/pose_graph.h"
@@ -43,6 +44,14 @@ struct ReplayResult {
   // Partial updates: steps that ordered and factorised afresh, steps that
   // fell back to a whole solve, poses re-linearised in all.
   size_t refactorizations = 0, whole_solves = 0, relinearized = 0;
+  // The fresh factorisations by why they were made (indexed by
+  // RebuildReason), and the wall time of the steps that made one.
+  std::array<size_t, 6> refactorizations_by{};
+  size_t retried = 0;  // refused steps taken again from the moved poses re-linearised
+  // Per step: the poses fed so far, and (partial updates) what its Update did.
+  std::vector<size_t> step_poses;
+  std::vector<UpdateResult> step_updates;
+  double refactorization_steps_s = 0;
 };
 
 // The pose order of a replay: vertex indices sorted by id. Each edge goes in

@@ -3,7 +3,9 @@
 // re-linearising through downdates and updates of the kept factor, converge
 // to it as Gauss-Newton does; an odometry step solves a handful of unknowns
 // however large the graph; the gauge follows priors and joined components;
-// graphs partial updates do not cover are solved whole.
+// graphs partial updates do not cover are solved whole; each fresh
+// factorisation says why it was made, and a refused step is first taken
+// again from the poses it moved, re-linearised.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -117,13 +119,17 @@ TEST(IncrementalPartial, TheGaugeFollowsALatePriorAndJoinedComponents) {
   }
   EXPECT_FALSE(opt.Update().exact);
   for (const Edge& e : joining) opt.AddEdge(e);
-  EXPECT_TRUE(opt.Update().refactorized);
+  UpdateResult joined = opt.Update();
+  EXPECT_TRUE(joined.refactorized);
+  EXPECT_EQ(joined.reason, RebuildReason::kGauge);
   Edge prior;
   prior.kind = EdgeKind::kPrior;
   prior.from = 50;
   prior.z = sim.noisy.vertex(50).x;
   opt.AddEdge(prior);
-  EXPECT_TRUE(opt.Update().refactorized);
+  const UpdateResult anchored = opt.Update();
+  EXPECT_TRUE(anchored.refactorized);
+  EXPECT_EQ(anchored.reason, RebuildReason::kGauge);
   for (int k = 0; k < 5; ++k) opt.Update();
   PoseGraph batch = opt.graph();
   const double expected = BatchChi2(batch);
@@ -174,6 +180,49 @@ TEST(IncrementalPartial, FillBoundGrowsWithTheFactor) {
     EXPECT_LT(Relative(r.final_chi2, BatchChi2(sim.noisy)), 1e-6) << "fraction " << k * 0.5;
   }
   EXPECT_LT(2 * rebuilds[1], rebuilds[0]) << rebuilds[1] << " against " << rebuilds[0];
+}
+
+// Every fresh factorisation of a replay is counted under its reason: the
+// first, then the reserved room used up (a small reserve) or the fill past
+// its bound (none allowed).
+TEST(IncrementalPartial, EachFreshFactorisationSaysWhy) {
+  const Simulation sim = Sim(2, 600, 5);
+  for (bool room : {true, false}) {
+    ReplayOptions o;
+    o.incremental.partial.reserve_poses = room ? 40 : 5000;
+    if (!room) o.incremental.partial.fill_bound = 0, o.incremental.partial.fill_fraction = 0;
+    const ReplayResult r = Replay(sim.noisy, o);
+    const auto& by = r.refactorizations_by;
+    size_t sum = 0;
+    for (size_t n : by) sum += n;
+    EXPECT_EQ(sum, r.refactorizations);
+    EXPECT_EQ(by[static_cast<size_t>(RebuildReason::kStart)], 1u);
+    EXPECT_EQ(by[static_cast<size_t>(RebuildReason::kNone)], 0u);
+    EXPECT_EQ(by[static_cast<size_t>(RebuildReason::kGauge)], 0u);
+    const size_t n = by[static_cast<size_t>(room ? RebuildReason::kRoom : RebuildReason::kFill)];
+    EXPECT_GT(n, 3u) << (room ? "room" : "fill");
+    if (!room) EXPECT_EQ(by[static_cast<size_t>(RebuildReason::kRoom)], 0u);
+    EXPECT_GT(r.refactorization_steps_s, 0.0);
+  }
+}
+
+// With rotation noise five times the simulator's default, long loops move
+// poses far from their linearisation points and some partial steps raise
+// the cost they should lower. Those are taken again from the moved poses
+// re-linearised where they stand, not from a whole fresh factorisation,
+// and the replay still ends at the batch optimum.
+TEST(IncrementalPartial, ARefusedStepIsTakenAgainFromTheMovedPoses) {
+  for (uint64_t seed : {1u, 2u}) {
+    SimulationOptions so;
+    so.poses = 1500;
+    so.rotation_noise = 0.05;
+    so.seed = seed;
+    const Simulation sim = Simulate(so);
+    const ReplayResult r = Replay(sim.noisy, ReplayOptions());
+    EXPECT_GT(r.retried, 0u) << "seed " << seed;
+    EXPECT_EQ(r.whole_solves, 0u);
+    EXPECT_LT(Relative(r.final_chi2, BatchChi2(sim.noisy)), 1e-6) << "seed " << seed;
+  }
 }
 
 }  // namespace

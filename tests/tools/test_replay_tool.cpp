@@ -4,9 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "test_util.h"
 
@@ -65,6 +67,51 @@ TEST(ReplayTool, WritesItsFiguresAndEndsAtTheBatchOptimum) {
       EXPECT_LT(std::abs(final_chi2 - batch), 1e-6 * batch) << solver << " seed " << seed;
     }
   }
+}
+
+// --steps writes a line a step: as many as the JSON's steps, the poses fed
+// rising to the graph's, and as many fresh factorisations named (by why) as
+// the JSON counts; a name not ending in .csv is refused before any work.
+TEST(ReplayTool, StepsFileHasALineAStepAndSaysWhyItFactorisedAfresh) {
+  const std::string in = Simulated(2, 400, 3);
+  const std::string json = TempDir() + "/replay_steps.json";
+  const std::string csv = TempDir() + "/replay_steps.csv";
+  int status = 0;
+  const std::string out = RunCommand(kTool + " replay " + in + " --reserve-poses 30 --json " +
+                                         json + " --steps " + csv + " --quiet 2>&1",
+                                     &status);
+  ASSERT_EQ(status, 0) << out;
+  std::ifstream lines(csv);
+  std::string line;
+  ASSERT_TRUE(std::getline(lines, line));
+  EXPECT_EQ(line.rfind("step,poses,step_s,cpu_s,", 0), 0u) << line;
+  size_t rows = 0, fresh = 0, last_poses = 0;
+  while (std::getline(lines, line)) {
+    ++rows;
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+    if (line.back() == ',') f.push_back("");
+    ASSERT_EQ(f.size(), 9u) << line;
+    EXPECT_EQ(std::stoul(f[0]), rows);
+    last_poses = std::stoul(f[1]);
+    if (!f[7].empty()) {
+      ++fresh;
+      EXPECT_TRUE(f[7] == "start" || f[7] == "room" || f[7] == "fill" || f[7] == "refused")
+          << line;
+    }
+  }
+  const std::string j = Slurp(json);
+  EXPECT_EQ(rows, static_cast<size_t>(JsonNumber(j, "steps")));
+  EXPECT_EQ(last_poses, 400u);
+  EXPECT_EQ(fresh, static_cast<size_t>(JsonNumber(j, "refactorizations")));
+  EXPECT_GT(fresh, 3u);  // a reserve of 30 poses runs out again and again
+
+  const std::string bad = TempDir() + "/replay_steps.txt";
+  std::remove(bad.c_str());
+  RunCommand(kTool + " replay " + in + " --steps " + bad + " --quiet 2>&1", &status);
+  EXPECT_NE(status, 0);
+  EXPECT_FALSE(std::ifstream(bad).good());
 }
 
 // MIT's long loops made partial updates diverge (final chi2 2.8e11): a step

@@ -38,7 +38,7 @@ struct PartialUpdateOptions {
   // farthest-moved poses that fit go first, the rest wait for the next
   // Updates, and a pose whose own work is over it for the next fresh
   // factorisation. Re-linearising was most of a step's work: 2e6 made the
-  // median step 2-3 times dearer than 5e5 on 2D graphs of 10,000 poses,
+  // median step about twice as dear as 5e5 on 2D graphs of 10,000 poses,
   // for no better estimate (docs/benchmarks.md).
   long relinearize_budget = 500000;
   // Solving again stops in a subtree of the elimination tree where the

@@ -78,15 +78,16 @@ Json ReplayJson(const ReplayArgs& a, const ReplayResult& r, double batch_chi2) {
   PutNumber(j, "final_chi2", r.final_chi2);
   PutNumber(j, "final_solve_s", r.final_time_s);
   PutNumber(j, "batch_chi2", batch_chi2);
-  j["refactorizations"] = r.refactorizations;
+  const ReplayResult::Counts c = r.Count();
+  j["refactorizations"] = c.refactorizations;
   Json by;
-  for (size_t k = 1; k < r.refactorizations_by.size(); ++k)
-    by[ToString(static_cast<RebuildReason>(k))] = r.refactorizations_by[k];
+  for (size_t k = 1; k < c.refactorizations_by.size(); ++k)
+    by[ToString(static_cast<RebuildReason>(k))] = c.refactorizations_by[k];
   j["refactorizations_by_reason"] = by;
-  PutNumber(j, "refactorization_steps_s", r.refactorization_steps_s);
-  j["retried_steps"] = r.retried;
-  j["whole_solves"] = r.whole_solves;
-  j["relinearized_poses"] = r.relinearized;
+  PutNumber(j, "refactorization_steps_s", c.refactorization_steps_s);
+  j["retried_steps"] = c.retried;
+  j["whole_solves"] = c.whole_solves;
+  j["relinearized_poses"] = c.relinearized;
   return j;
 }
 
@@ -117,13 +118,14 @@ void PrintSummary(const ReplayArgs& a, const ReplayResult& r, double batch_chi2)
               1e3 * Percentile(r.step_cpu_s, 0.5), 1e3 * Percentile(r.step_cpu_s, 0.99), cpu);
   std::printf("total %.3f s; chi2 after the last step %.10g\n", r.total_s, r.replay_chi2);
   if (a.solver == "gn" && !a.full) {
-    std::printf("fresh factorisations %zu (%.3f s of steps; ", r.refactorizations,
-                r.refactorization_steps_s);
-    for (size_t k = 1; k < r.refactorizations_by.size(); ++k)
+    const ReplayResult::Counts c = r.Count();
+    std::printf("fresh factorisations %zu (%.3f s of steps; ", c.refactorizations,
+                c.refactorization_steps_s);
+    for (size_t k = 1; k < c.refactorizations_by.size(); ++k)
       std::printf("%s%s %zu", k > 1 ? ", " : "", ToString(static_cast<RebuildReason>(k)),
-                  r.refactorizations_by[k]);
+                  c.refactorizations_by[k]);
     std::printf("), refused steps taken again %zu, whole solves %zu, poses re-linearised %zu\n",
-                r.retried, r.whole_solves, r.relinearized);
+                c.retried, c.whole_solves, c.relinearized);
   }
   const double rel = batch_chi2 != 0 ? (r.final_chi2 - batch_chi2) / batch_chi2 : 0;
   std::printf("final chi2 %.10g (exact solve %.3f s), batch %.10g, relative difference %.3g\n",

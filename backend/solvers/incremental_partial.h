@@ -84,6 +84,7 @@ constexpr int kRelinearizeCandidates = 64;
 // the fill past its bound, the gauge that may move, or a partial step that
 // was refused (its cost rose, or the factor stopped being positive definite).
 enum class RebuildReason { kNone, kStart, kRoom, kFill, kGauge, kRefused };
+inline constexpr size_t kRebuildReasons = 6;  // RebuildReason's values
 const char* ToString(RebuildReason reason);
 
 // What one Update did, for benchmarks and tests.

@@ -83,23 +83,12 @@ void FeedPose(const PoseGraph& source, IncrementalOptimizer& opt, const Vertex& 
   for (size_t e : edges) opt.AddEdge(source.edges()[e]);
 }
 
-// Returns whether the step ordered and factorised afresh.
-bool Step(IncrementalOptimizer& opt, ReplayMode mode, ReplayResult* result) {
+void Step(IncrementalOptimizer& opt, ReplayMode mode, ReplayResult* result) {
   switch (mode) {
-    case ReplayMode::kPartial: {
-      const UpdateResult u = opt.Update();
-      result->step_updates.back() = u;
-      result->refactorizations += u.refactorized;
-      result->retried += static_cast<size_t>(u.retried);
-      if (u.refactorized) ++result->refactorizations_by[static_cast<size_t>(u.reason)];
-      result->whole_solves += u.exact;
-      result->relinearized += static_cast<size_t>(u.relinearized_vertices);
-      return u.refactorized;
-    }
+    case ReplayMode::kPartial: result->step_updates.back() = opt.Update(); break;
     case ReplayMode::kGaussNewton: opt.Optimize(SolverKind::kGaussNewton); break;
     case ReplayMode::kCeres: opt.Optimize(SolverKind::kCeres); break;
   }
-  return false;
 }
 
 double ProcessCpuSeconds() {
@@ -109,6 +98,21 @@ double ProcessCpuSeconds() {
 }
 
 }  // namespace
+
+ReplayResult::Counts ReplayResult::Count() const {
+  Counts c;
+  for (size_t k = 0; k < step_updates.size(); ++k) {
+    const UpdateResult& u = step_updates[k];
+    c.whole_solves += u.exact;
+    c.relinearized += static_cast<size_t>(u.relinearized_vertices);
+    c.retried += static_cast<size_t>(u.retried);
+    if (!u.refactorized) continue;
+    ++c.refactorizations;
+    ++c.refactorizations_by[static_cast<size_t>(u.reason)];
+    c.refactorization_steps_s += step_s[k];
+  }
+  return c;
+}
 
 double Percentile(std::vector<double> values, double q) {
   if (values.empty()) return 0;
@@ -137,10 +141,9 @@ ReplayResult Replay(const PoseGraph& graph, const ReplayOptions& options) {
     // A pose no edge has reached yet is no unknown: nothing to solve.
     result.step_poses.push_back(k + 1);
     result.step_updates.emplace_back();
-    const bool fresh = !opt.graph().edges().empty() && Step(opt, options.mode, &result);
+    if (!opt.graph().edges().empty()) Step(opt, options.mode, &result);
     const auto now = std::chrono::steady_clock::now();
     result.step_s.push_back(std::chrono::duration<double>(now - step_start).count());
-    if (fresh) result.refactorization_steps_s += result.step_s.back();
     step_start = now;
     const double cpu_now = ProcessCpuSeconds();
     result.step_cpu_s.push_back(cpu_now - cpu_start);

@@ -41,17 +41,20 @@ struct ReplayResult {
   double final_chi2 = 0;       // after a final exact Optimize() with the same solver
   double final_time_s = 0;     // that Optimize()
   size_t poses = 0, edges = 0;
-  // Partial updates: steps that ordered and factorised afresh, steps that
-  // fell back to a whole solve, poses re-linearised in all.
-  size_t refactorizations = 0, whole_solves = 0, relinearized = 0;
-  // The fresh factorisations by why they were made (indexed by
-  // RebuildReason), and the wall time of the steps that made one.
-  std::array<size_t, 6> refactorizations_by{};
-  size_t retried = 0;  // refused steps taken again from the moved poses re-linearised
   // Per step: the poses fed so far, and (partial updates) what its Update did.
   std::vector<size_t> step_poses;
   std::vector<UpdateResult> step_updates;
-  double refactorization_steps_s = 0;
+
+  // What the partial updates did over the whole replay, summed from the
+  // steps: steps that ordered and factorised afresh (in all, and by why:
+  // indexed by RebuildReason) and their wall time, steps that fell back to
+  // a whole solve, poses re-linearised, refused steps taken again.
+  struct Counts {
+    size_t refactorizations = 0, whole_solves = 0, relinearized = 0, retried = 0;
+    std::array<size_t, kRebuildReasons> refactorizations_by{};
+    double refactorization_steps_s = 0;
+  };
+  Counts Count() const;
 };
 
 // The pose order of a replay: vertex indices sorted by id. Each edge goes in

@@ -46,10 +46,10 @@ TEST(IncrementalPartial, ReplayThenOptimizeEndsAtTheBatchOptimum) {
       const ReplayResult r = Replay(sim.noisy, o);
       const double batch = BatchChi2(sim.noisy);
       EXPECT_LT(Relative(r.final_chi2, batch), 1e-6) << dimension << "D, seed " << seed;
-      EXPECT_EQ(r.whole_solves, 0u);
-      EXPECT_GT(r.refactorizations, 1u);
+      EXPECT_EQ(r.Count().whole_solves, 0u);
+      EXPECT_GT(r.Count().refactorizations, 1u);
       // Most steps modified the kept factor rather than factorising afresh.
-      EXPECT_LT(r.refactorizations, r.step_s.size() / 10);
+      EXPECT_LT(r.Count().refactorizations, r.step_s.size() / 10);
       // The estimate along the way is a near-optimal one, not the dead reckoning.
       EXPECT_LT(r.replay_chi2, 1.5 * batch) << dimension << "D, seed " << seed;
       EXPECT_LT(r.replay_chi2, 0.01 * Chi2(sim.noisy));
@@ -176,7 +176,7 @@ TEST(IncrementalPartial, FillBoundGrowsWithTheFactor) {
     o.incremental.partial.fill_bound = 0;
     o.incremental.partial.fill_fraction = k == 0 ? 0.0 : 0.5;
     const ReplayResult r = Replay(sim.noisy, o);
-    rebuilds[k] = r.refactorizations;
+    rebuilds[k] = r.Count().refactorizations;
     EXPECT_LT(Relative(r.final_chi2, BatchChi2(sim.noisy)), 1e-6) << "fraction " << k * 0.5;
   }
   EXPECT_LT(2 * rebuilds[1], rebuilds[0]) << rebuilds[1] << " against " << rebuilds[0];
@@ -192,17 +192,18 @@ TEST(IncrementalPartial, EachFreshFactorisationSaysWhy) {
     o.incremental.partial.reserve_poses = room ? 40 : 5000;
     if (!room) o.incremental.partial.fill_bound = 0, o.incremental.partial.fill_fraction = 0;
     const ReplayResult r = Replay(sim.noisy, o);
-    const auto& by = r.refactorizations_by;
+    const ReplayResult::Counts c = r.Count();
+    const auto& by = c.refactorizations_by;
     size_t sum = 0;
     for (size_t n : by) sum += n;
-    EXPECT_EQ(sum, r.refactorizations);
+    EXPECT_EQ(sum, c.refactorizations);
     EXPECT_EQ(by[static_cast<size_t>(RebuildReason::kStart)], 1u);
     EXPECT_EQ(by[static_cast<size_t>(RebuildReason::kNone)], 0u);
     EXPECT_EQ(by[static_cast<size_t>(RebuildReason::kGauge)], 0u);
     const size_t n = by[static_cast<size_t>(room ? RebuildReason::kRoom : RebuildReason::kFill)];
     EXPECT_GT(n, 3u) << (room ? "room" : "fill");
     if (!room) EXPECT_EQ(by[static_cast<size_t>(RebuildReason::kRoom)], 0u);
-    EXPECT_GT(r.refactorization_steps_s, 0.0);
+    EXPECT_GT(c.refactorization_steps_s, 0.0);
   }
 }
 
@@ -219,8 +220,8 @@ TEST(IncrementalPartial, ARefusedStepIsTakenAgainFromTheMovedPoses) {
     so.seed = seed;
     const Simulation sim = Simulate(so);
     const ReplayResult r = Replay(sim.noisy, ReplayOptions());
-    EXPECT_GT(r.retried, 0u) << "seed " << seed;
-    EXPECT_EQ(r.whole_solves, 0u);
+    EXPECT_GT(r.Count().retried, 0u) << "seed " << seed;
+    EXPECT_EQ(r.Count().whole_solves, 0u);
     EXPECT_LT(Relative(r.final_chi2, BatchChi2(sim.noisy)), 1e-6) << "seed " << seed;
   }
 }

@@ -51,13 +51,13 @@ Eigen::Matrix3d OdometryInformation(const SE2& delta) {
 }  // namespace
 
 bool VerifyLoopClosure(const PointCloud& submap, const PointCloud& query, const SE2& guess,
-                       double linear_window, const MapperOptions& o, SE2* pose,
-                       Eigen::Matrix3d* information, IcpResult* icp_out) {
+                       double linear_window, double angular_window, const MapperOptions& o,
+                       SE2* pose, Eigen::Matrix3d* information, IcpResult* icp_out) {
   if (submap.size() < 20 || query.size() < 20) return false;
   MapPair maps(submap, 0.15);
   CorrelativeOptions co;
   co.linear_window = linear_window;
-  co.angular_window = o.loop_angular_window;
+  co.angular_window = angular_window;
   co.angular_step = 0.0175;
   // A faint pull to the guess: where the walls leave a direction free (a
   // corridor), the current estimate beats an arbitrary point on a flat score.
@@ -549,6 +549,8 @@ class GraphBuilder {
     if (lost_since_keyframe_ || from_lost) info *= o_.lost_information_scale;
     e.information.SetTopLeft(info);
     graph_.AddEdge(e);
+    untracked_var_.push_back(match_info ? 0.0 : info.inverse()(2, 2));
+    if (!match_info) unsettled_.push_back(K);
     res_.keyframes.push_back({i, path_, std::move(cloud), lost_});
     lost_since_keyframe_ = false;
     scan_kf_[i] = K;
@@ -562,6 +564,38 @@ class GraphBuilder {
     return std::min(o_.loop_max_radius, o_.loop_radius + o_.loop_radius_growth * travel);
   }
 
+  // Where keyframe j may lie, seen from K: the radius around the current
+  // estimate and the heading window. Wider across steps the scans did not
+  // confirm: one whose odometry was 20-30 degrees off leaves everything
+  // before it turned by as much about that step's pose, beyond the usual
+  // windows, and the loop closures that would re-anchor it were never
+  // found. The radius grows by three standard deviations of the shift that
+  // turn gives j (its heading error times j's distance from the step).
+  struct LoopWindow {
+    double radius, angle;
+  };
+  LoopWindow WindowFor(size_t j, size_t K) const {
+    double turn = 0, shift = 0;
+    const Eigen::Vector2d xj = KeyframePose(j).translation();
+    for (size_t w : unsettled_) {
+      if (w <= j || w > K) continue;
+      turn += untracked_var_[w];
+      shift += untracked_var_[w] * (KeyframePose(w).translation() - xj).squaredNorm();
+    }
+    if (!(turn > 0)) return {LoopRadius(j), o_.loop_angular_window};
+    const double radius = LoopRadius(j) + 3 * std::sqrt(shift);
+    return {std::min(std::max(LoopRadius(j), o_.loop_max_radius), radius),
+            std::clamp(3 * std::sqrt(turn), o_.loop_angular_window,
+                       std::max(o_.loop_angular_window, o_.loop_max_angular_window))};
+  }
+
+  // A loop closure j -> K ties the steps between them to the scans.
+  void Settle(size_t j, size_t K) {
+    auto settled = [&](size_t w) { return w > j && w <= K; };
+    unsettled_.erase(std::remove_if(unsettled_.begin(), unsettled_.end(), settled),
+                     unsettled_.end());
+  }
+
   // Loop closures: earlier keyframes near the current estimate, far enough
   // back along the path that they are not in the local map.
   std::vector<size_t> LoopCandidates(size_t K) const {
@@ -570,7 +604,7 @@ class GraphBuilder {
     for (size_t j = 0; j + 1 < K; ++j) {
       if (path_ - res_.keyframes[j].path < o_.loop_min_travel) continue;
       const double d = (KeyframePose(j).translation() - xk.translation()).norm();
-      if (d <= LoopRadius(j)) near.emplace_back(d, j);
+      if (d <= WindowFor(j, K).radius) near.emplace_back(d, j);
     }
     std::sort(near.begin(), near.end());
     // The nearest few, no two with overlapping submaps.
@@ -613,7 +647,9 @@ class GraphBuilder {
       const PointCloud submap = LoopSubmap(j, K);
       SE2 matched;
       Eigen::Matrix3d linfo;
-      if (!VerifyLoopClosure(submap, LoopQuery(K), xk, LoopRadius(j), o_, &matched, &linfo))
+      const LoopWindow window = WindowFor(j, K);
+      if (!VerifyLoopClosure(submap, LoopQuery(K), xk, window.radius, window.angle, o_, &matched,
+                             &linfo))
         continue;
       Edge lc;
       lc.kind = EdgeKind::kLoopClosure;
@@ -622,6 +658,7 @@ class GraphBuilder {
       lc.z = ToParams(KeyframePose(j).Between(matched));
       lc.information.SetTopLeft(linfo);
       graph_.AddEdge(lc);
+      Settle(j, K);
       ++res_.stats.loop_accepted;
       path_at_last_loop_ = path_;
       loop_pending_ = true;
@@ -686,6 +723,10 @@ class GraphBuilder {
   MapResult res_;
   PoseGraph& graph_;
   double match_max_ = 0;
+  // Per keyframe: the heading variance of the step into it when the scans
+  // did not confirm it; and those keyframes that no loop closure spans yet.
+  std::vector<double> untracked_var_{0.0};
+  std::vector<size_t> unsettled_;
   std::vector<size_t> scan_kf_;  // each scan's keyframe...
   std::vector<SE2> scan_rel_;    // ...and its pose relative to it
   std::unique_ptr<MapPair> local_;

@@ -62,6 +62,13 @@ struct MapperOptions {
   double loop_radius_growth = 0.02;     // ...growing per metre of path since...
   double loop_max_radius = 5.0;         // ...up to this
   double loop_angular_window = 0.35;    // 20 degrees
+  // Between two keyframes joined through steps the scans did not confirm
+  // (the odometry kept, tracking lost), their relative pose is as uncertain
+  // as those steps' odometry: the radius grows by three standard deviations
+  // of the shift their heading error gives (up to loop_max_radius), the
+  // heading window to three of that error, up to this. A loop closure
+  // across such steps settles them.
+  double loop_max_angular_window = 1.05;  // 60 degrees
   int loop_max_candidates = 2;          // per keyframe
   int loop_submap_neighbours = 3;       // keyframes each side of the candidate
   int loop_query_keyframes = 3;         // the current one and the previous ones
@@ -122,11 +129,11 @@ OccupancyGrid BuildOccupancyGrid(const CarmenLog& log, const std::vector<SE2>& p
                                  double max_range, const GridOptions& options);
 
 // Verifies a loop-closure candidate: matches `query` (robot frame) against
-// `submap` (world frame) from `guess`. Returns true and the world pose of
+// `submap` (world frame) from `guess`, within +- the windows (metres, radians). Returns true and the world pose of
 // the query with its information (in the query's frame) if the fitness
 // tests pass.
 bool VerifyLoopClosure(const PointCloud& submap, const PointCloud& query, const SE2& guess,
-                       double linear_window, const MapperOptions& options, SE2* pose,
-                       Eigen::Matrix3d* information, IcpResult* icp_out = nullptr);
+                       double linear_window, double angular_window, const MapperOptions& options,
+                       SE2* pose, Eigen::Matrix3d* information, IcpResult* icp_out = nullptr);
 
 }  // namespace cairn::frontend

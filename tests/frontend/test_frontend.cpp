@@ -112,19 +112,22 @@ TEST(LoopClosure, AcceptsTheRightPlaceAndRejectsAWrongCandidate) {
   MapperOptions o;
   SE2 pose;
   Eigen::Matrix3d info;
-  ASSERT_TRUE(VerifyLoopClosure(submap, query, b * SE2(0.4, -0.3, 0.1), 1.0, o, &pose, &info));
+  ASSERT_TRUE(VerifyLoopClosure(submap, query, b * SE2(0.4, -0.3, 0.1), 1.0,
+                                o.loop_angular_window, o, &pose, &info));
   EXPECT_LT((pose.translation() - b.translation()).norm(), 0.02);
 
   // A scan from another place (the corridor) near the same estimate: the
   // fitness tests must refuse it.
   const PointCloud elsewhere = ScanToCloud(Render(Corridor(), SE2(0, 1, 0)), 0.05, 29.9);
-  EXPECT_FALSE(VerifyLoopClosure(submap, elsewhere, b, 1.0, o, &pose, &info));
+  EXPECT_FALSE(
+      VerifyLoopClosure(submap, elsewhere, b, 1.0, o.loop_angular_window, o, &pose, &info));
   // And in a corridor, a short-sighted scan fits anywhere along it: the
   // ambiguity test must refuse to pick a place.
   PointCloud corridor_map;
   corridor_map.Append(ScanToCloud(Render(Corridor(), SE2(0, 1, 0)), 0.05, 29.9), SE2(0, 1, 0));
   const PointCloud short_sighted = ScanToCloud(Render(Corridor(), SE2(0, 1, 0), 361, 8.0), 0.05, 7.9);
-  EXPECT_FALSE(VerifyLoopClosure(corridor_map, short_sighted, SE2(0.5, 1, 0), 1.0, o, &pose, &info));
+  EXPECT_FALSE(VerifyLoopClosure(corridor_map, short_sighted, SE2(0.5, 1, 0), 1.0,
+                                 o.loop_angular_window, o, &pose, &info));
 }
 
 TEST(OccupancyGrid, SingleBeamClearsThenMarksTheHit) {

@@ -149,14 +149,27 @@ TEST(HarnessEndToEnd, TwinsThatPutWallsInFreeSpace) {
 // window's edge, or moves no base makes (a corridor's other place 1.2-1.9 m
 // along, at scans 200 and 325), were kept when the wide search offered no
 // clearly better pose, though its best or runner-up fitted as well from a
-// plausible move. Taking the most plausible of them: 20.3 m -> 0.54 m (the
-// rest is one scan near the start the odometry places 22 degrees off, which
-// no loop closure reaches: the 0.15 m aim is not met yet).
+// plausible move. Taking the most plausible of them: 20.3 m -> 0.54 m. The
+// rest was scan 38, matched at 36% inliers and so left to the odometry, 22.6
+// degrees off: everything before it stood turned, beyond the loop search's
+// 20 degree window, and no loop closure re-anchored it. Across such steps
+// the loop search now widens by their odometry's uncertainty: 0.098 m.
 TEST(HarnessEndToEnd, CsailWithThreeTimesTheOdometryNoise) {
   const double ate = HarnessAte("csail", "noise3", 1);
   if (ate == -1) GTEST_SKIP() << "dataset not found: csail-corrected.log.gz";
   EXPECT_GT(ate, 0);
-  EXPECT_LE(ate, 1.0);
+  EXPECT_LE(ate, 0.15);
+}
+
+// The same widening on csail with half its beams and with 3 cm of range
+// noise (0.152 and 0.195 m before it).
+TEST(HarnessEndToEnd, CsailWithHalfTheBeamsOrRangeNoise) {
+  for (const char* kase : {"half", "range"}) {
+    const double ate = HarnessAte("csail", kase, 1);
+    if (ate == -1) GTEST_SKIP() << "dataset not found: csail-corrected.log.gz";
+    EXPECT_GT(ate, 0) << kase;
+    EXPECT_LE(ate, 0.15) << kase;
+  }
 }
 
 TEST(HarnessEndToEnd, AcesWithEveryOtherScanDropped) {

@@ -101,6 +101,9 @@ void DeclareOutlierOptions(ArgParser& args, OptimizeArgs& a) {
   args.Option("gnc-iterations", &r.inner_iterations, "N",
               "with --reject-outliers: iterations of each weighted solve inside GNC (0: "
               "--max-iterations); the solves without the rejected ones run in full");
+  args.Option("gnc-mu-factor", &r.mu_factor, "F",
+              "with --reject-outliers: GNC's mu grows by this factor from one weighted solve "
+              "to the next (larger: fewer solves, a coarser path to the truncated cost)");
   args.Option("outlier-window", &r.consistency_window, "N",
               "with --reject-outliers: the largest pairwise consistent set of loop closures "
               "(every pair whose ends lie within N ids tested, and random others), less "

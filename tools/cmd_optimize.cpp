@@ -101,6 +101,10 @@ void DeclareOutlierOptions(ArgParser& args, OptimizeArgs& a) {
   args.Option("gnc-iterations", &r.inner_iterations, "N",
               "with --reject-outliers: iterations of each weighted solve inside GNC (0: "
               "--max-iterations); the solves without the rejected ones run in full");
+  args.Option("gnc-tolerance", &r.inner_tolerance, "TOL",
+              "with --reject-outliers: each weighted solve inside GNC stops once a step lowers "
+              "chi2 (or the gradient) by less than this fraction (0: --function-tolerance and "
+              "--gradient-tolerance)");
   args.Option("gnc-mu-factor", &r.mu_factor, "F",
               "with --reject-outliers: GNC's mu grows by this factor from one weighted solve "
               "to the next (larger: fewer solves, a coarser path to the truncated cost)");
@@ -225,6 +229,7 @@ bool MakePlan(OptimizeArgs& a, OptimizePlan* p) {
   a.rejection.readmit = !a.no_readmit;
   // The inner solves are many: one progress line per GNC round instead.
   a.rejection.verbose = !a.quiet;
+  a.rejection.threads = a.common.threads;
   std::string why;
   if (!p->ceres.IsValid(&why) || !p->gn.IsValid(&why) ||
       (a.reject_outliers && !a.rejection.IsValid(&why))) {
@@ -250,9 +255,14 @@ SolveResult SolveRejecting(PoseGraph& graph, const OptimizeArgs& a, const Optimi
   inner.ceres.verbose = inner.gn.verbose = false;
   const OutlierRejectionResult r = SolveRejectingOutliers(
       graph,
-      [&](PoseGraph& g, int max_iterations) {
+      [&](PoseGraph& g, const InnerSolve& limits) {
         OptimizePlan q = inner;
-        if (max_iterations > 0) q.ceres.max_iterations = q.gn.max_iterations = max_iterations;
+        if (limits.max_iterations > 0)
+          q.ceres.max_iterations = q.gn.max_iterations = limits.max_iterations;
+        if (limits.tolerance > 0) {
+          q.ceres.function_tolerance = q.gn.function_tolerance = limits.tolerance;
+          q.ceres.gradient_tolerance = q.gn.gradient_tolerance = limits.tolerance;
+        }
         return Solve(g, q);
       },
       a.rejection);

@@ -85,8 +85,8 @@ struct RejectionState {
   std::vector<size_t> origin;  // per edge of `inliers`, its index in `graph`
 
   // Every inner solve goes through here, so the result covers the run.
-  SolveResult Solve(PoseGraph& g, int iterations) {
-    SolveResult r = solve(g, iterations);
+  SolveResult Solve(PoseGraph& g, const InnerSolve& limits = {}) {
+    SolveResult r = solve(g, limits);
     ++out.rounds;
     out.iterations += r.iterations;
     out.solve_time_s += r.time_s;
@@ -98,7 +98,7 @@ struct RejectionState {
 // loop closure at weight 0, or outside the current stage, is left out
 // altogether (a negligible weight would still cost fill in the
 // factorisation: random wrong loop closures join far-apart poses).
-SolveResult SolveWeighted(RejectionState& s, const std::vector<bool>& in, int iterations,
+SolveResult SolveWeighted(RejectionState& s, const std::vector<bool>& in, const InnerSolve& limits,
                           InitMethod init = InitMethod::kFile) {
   PoseGraph g(s.graph.dimension());
   for (const Vertex& v : s.work.vertices()) g.AddVertex(v.id, v.x, v.fixed);
@@ -113,7 +113,7 @@ SolveResult SolveWeighted(RejectionState& s, const std::vector<bool>& in, int it
     g.AddEdge(e);
   }
   if (init != InitMethod::kFile) Initialize(g, init);
-  const SolveResult r = s.Solve(g, iterations);
+  const SolveResult r = s.Solve(g, limits);
   for (size_t v = 0; v < g.vertices().size(); ++v) s.work.vertices()[v].x = g.vertices()[v].x;
   return r;
 }
@@ -170,7 +170,8 @@ void Gnc(RejectionState& s, const std::vector<bool>& in, double mu, const char* 
       continue;
     }
     solved_w = w;
-    s.out.solve = SolveWeighted(s, in, options.inner_iterations);
+    s.out.solve =
+        SolveWeighted(s, in, InnerSolve{options.inner_iterations, options.inner_tolerance});
     s.r2 = Residuals(s);
     if (options.verbose)
       std::fprintf(stderr,
@@ -195,6 +196,7 @@ std::vector<bool> ConfirmedByConsistency(RejectionState& s, size_t* n_confirmed)
   o.window = s.options.consistency_window;
   o.reach = 10 * o.window;
   o.partners = s.options.consistency_partners;
+  o.threads = s.options.threads;
   o.scale_by_variance = s.options.scale_by_variance;
   const ConsistentSet set = MaximumConsistentSet(s.graph, o);
   size_t n_in = 0;
@@ -244,7 +246,8 @@ void GncFromConfirmed(RejectionState& s, const std::vector<bool>& confirmed, siz
   // tell: 11 of 534 on city10000) make least squares slow (chi2 140,000
   // after 100 iterations), and GNC on them, with the threshold scaled by the
   // variance factor the short cycles showed, cuts them out instead.
-  s.out.solve = SolveWeighted(s, confirmed, s.options.trusted_iterations, s.options.fresh_init);
+  s.out.solve = SolveWeighted(s, confirmed, InnerSolve{s.options.trusted_iterations, 0},
+                              s.options.fresh_init);
   s.r2 = Residuals(s);
   if (s.options.scale_by_variance) s.gnc_c2 = s.c2 * s.cycle_variance;
   if (s.options.verbose)
@@ -262,16 +265,18 @@ void GncFromConfirmed(RejectionState& s, const std::vector<bool>& confirmed, siz
     if (s.options.verbose)
       std::fprintf(stderr, "GNC's threshold from the %zu kept: %.4g\n", n_in, s.gnc_c2);
   }
-  // Again while the set of loop closures that weigh in changes: as the
-  // estimate improves, good loop closures that did not fit come within
-  // reach (a region that only they constrain can relax towards them).
+  // Again (options.gnc_passes) while the set of loop closures that weigh in
+  // changes: as the estimate improves, good loop closures that did not fit
+  // come within reach (a region that only they constrain can relax towards
+  // them). Re-admission and the take-back of what fits, after the
+  // verification, bring those back too, at a fraction of a pass's cost.
   const std::vector<bool> all(s.closures.size(), true);
   // Before the first pass: those within its reach, so that a pass that ends
   // keeping just them is not repeated.
   std::vector<bool> in_before(s.closures.size());
   for (size_t i = 0; i < s.closures.size(); ++i)
     in_before[i] = s.r2[i] < s.options.restart_chi2_factor * s.gnc_c2;
-  for (int pass = 0; pass < s.options.max_passes; ++pass) {
+  for (int pass = 0; pass < s.options.gnc_passes; ++pass) {
     Gnc(s, all, restart, "all");
     std::vector<bool> in(s.closures.size());
     for (size_t i = 0; i < s.closures.size(); ++i) in[i] = s.w[i] >= 0.5 || s.r2[i] <= s.gnc_c2;
@@ -300,7 +305,7 @@ void BuildInliers(RejectionState& s) {
 void SolveInliersAgain(RejectionState& s) {
   for (Vertex& v : s.work.vertices()) v.x = s.inliers.vertex(v.id).x;
   BuildInliers(s);
-  s.out.solve = s.Solve(s.inliers, 0);
+  s.out.solve = s.Solve(s.inliers);
 }
 
 // Of the groups of kept loop closures (edges of s.inliers; `gain`, the fall
@@ -647,8 +652,8 @@ bool SolveKeptToOptimum(RejectionState& s, const PoseGraph& start) {
   for (size_t i = 0; i < fresh.vertices().size(); ++i)
     fresh.vertices()[i].x = start.vertices()[i].x;
   if (s.options.fresh_init != InitMethod::kFile) Initialize(fresh, s.options.fresh_init);
-  const SolveResult here = s.Solve(s.inliers, 0);
-  const SolveResult anew = s.Solve(fresh, 0);
+  const SolveResult here = s.Solve(s.inliers);
+  const SolveResult anew = s.Solve(fresh);
   const bool take_fresh = anew.usable && (!here.usable || anew.final_chi2 < here.final_chi2);
   if (s.options.verbose)
     std::fprintf(stderr,
@@ -703,7 +708,7 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
 
   RunGnc(s);
   BuildInliers(s);  // at GNC's estimate
-  s.out.solve = s.Solve(s.inliers, 0);
+  s.out.solve = s.Solve(s.inliers);
   if (options.verbose)
     std::fprintf(stderr, "without the %zu rejected: chi2 %.6g, %d iterations, %.2f s\n",
                  s.closures.size() - s.kept.size(), s.out.solve.final_chi2,

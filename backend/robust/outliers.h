@@ -33,12 +33,15 @@ struct OutlierRejectionOptions {
   double threshold_chi2 = 0;
   double confidence = 0.999;
   // GNC's schedule: mu grows by this factor between weighted solves.
-  double mu_factor = 1.4;
+  double mu_factor = 2;
   int max_rounds = 1000;
   // Iterations of each weighted solve inside GNC (0: the solver's own
-  // limit); the weights move on before the estimate has settled. The last
-  // solves, without the rejected loop closures, always run to convergence.
+  // limit), and the relative decrease of chi2 (and of the gradient) below
+  // which it stops (0: the solver's own tolerances): the weights move on
+  // before the estimate has settled to its last digits. The last solves,
+  // without the rejected loop closures, always run to the solver's own.
   int inner_iterations = 0;
+  double inner_tolerance = 1e-4;
   // The largest set of pairwise consistent loop closures
   // (MaximumConsistentSet, pairwise_consistency.h: pairs whose ends lie
   // within this many ids tested, some within ten times as many, and
@@ -56,8 +59,12 @@ struct OutlierRejectionOptions {
   // After that stage, GNC over all loop closures starts where a residual
   // beyond this many times the threshold weighs 0 (mu = 1 / (factor - 1)).
   double restart_chi2_factor = 10;
-  // ... and is repeated from its own result, at most this many times, until
-  // the loop closures it keeps no longer change.
+  // ... and is repeated from its own result, at most gnc_passes times, until
+  // the loop closures it keeps no longer change. One by default: a second
+  // pass cost as much as the first and changed no decision in the table of
+  // docs/robustness.md (re-admission and the take-back of what fits come
+  // after it). max_passes bounds the passes of re-admission and take-back.
+  int gnc_passes = 1;
   int max_passes = 10;
   // After GNC: reject, one at a time, kept loop closures whose deletion
   // would lower chi2 by more than the threshold (see SolveRejectingOutliers).
@@ -83,6 +90,9 @@ struct OutlierRejectionOptions {
   // from `fresh_init` (kFile: the starting estimate), the lower chi2 kept.
   bool final_solve = true;
   InitMethod fresh_init = InitMethod::kAuto;
+  // Threads for the pairwise tests (0: one per hardware thread); the
+  // decision is the same for any count. The solves take the solver's own.
+  int threads = 0;
   bool verbose = false;
 
   // False, with *error saying which option and why, for values out of
@@ -107,9 +117,18 @@ struct OutlierRejectionResult {
 // OutlierRejectionResult::rejected_edges), everything else as it is.
 PoseGraph WithoutEdges(const PoseGraph& graph, const std::vector<size_t>& edges);
 
+// What a stage asks of one inner solve: at most `max_iterations` iterations
+// (0: the solver's own limit) and, when `tolerance` > 0, a stop once a step
+// lowers chi2 by less than that fraction of it or the gradient falls as far
+// (the solver's function and gradient tolerances; 0: its own).
+struct InnerSolve {
+  int max_iterations = 0;
+  double tolerance = 0;
+};
+
 // A solve of a graph in place (weights are folded into the information),
-// of at most `max_iterations` iterations (0: the solver's own limit).
-using GraphSolver = std::function<SolveResult(PoseGraph& graph, int max_iterations)>;
+// within those limits.
+using GraphSolver = std::function<SolveResult(PoseGraph& graph, const InnerSolve& limits)>;
 
 // Graduated non-convexity (Yang et al. 2020) for the truncated least squares
 // cost sum_i min(chi2_i, c^2) over loop closures; odometry and priors are

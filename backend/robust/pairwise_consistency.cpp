@@ -9,9 +9,11 @@
 #include <queue>
 #include <random>
 #include <stdexcept>
+#include <thread>
 #include <unordered_map>
 
 #include "cairn/graph/geometry.h"
+#include "cairn/linear/parallel.h"
 
 namespace cairn {
 namespace {
@@ -189,29 +191,22 @@ int64_t Span(const CycleTester& t, size_t i, size_t j) {
   return std::min(std::abs(ai - aj) + std::abs(bi - bj), std::abs(ai - bj) + std::abs(bi - aj));
 }
 
-// Every pair with both ends within `window` ids; of the pairs with both ends
-// within `reach` ids, `medium` at most (evenly through them); and `partners`
-// random others per loop closure. Cycles of a few hundred poses are where an
-// aliased group meets the good loop closures of the places it claims to
-// join, with odometry still certain enough to tell; random partners are
-// mostly thousands of poses away. Found through buckets of reach x reach ids.
-std::vector<TestedPair> SparsePairs(const CycleTester& t, const ConsistentSetOptions& o) {
+using Buckets = std::map<std::pair<int64_t, int64_t>, std::vector<uint32_t>>;
+
+// The pairs loop closures [begin, end) test (each against later ones near
+// it, and random partners), in order.
+std::vector<TestedPair> PairsFrom(const CycleTester& t, const ConsistentSetOptions& o,
+                                  const Buckets& buckets, size_t begin, size_t end) {
   const size_t n = t.size();
-  std::vector<TestedPair> pairs;
   const int64_t w = std::max(o.window, 1), r = std::max<int64_t>(o.reach, w);
-  auto key = [r](int64_t a, int64_t b) { return std::make_pair(a / r, b / r); };
-  std::map<std::pair<int64_t, int64_t>, std::vector<uint32_t>> buckets;
-  for (size_t i = 0; i < n; ++i) {
-    const auto [a, b] = t.Ends(i);
-    buckets[key(a, b)].push_back(static_cast<uint32_t>(i));
-  }
+  std::vector<TestedPair> pairs;
   auto test = [&](size_t i, size_t j) {
     pairs.push_back({static_cast<uint32_t>(i), static_cast<uint32_t>(j),
                      static_cast<float>(t.PairChi2(i, j)), Span(t, i, j) <= 2 * w});
   };
   std::vector<uint32_t> seen(n, UINT32_MAX);  // the i that last tested j
   std::vector<uint32_t> medium;
-  for (size_t i = 0; i < n; ++i) {
+  for (size_t i = begin; i < end; ++i) {
     const auto [a, b] = t.Ends(i);
     medium.clear();
     for (int64_t da = -1; da <= 1; ++da)
@@ -243,6 +238,38 @@ std::vector<TestedPair> SparsePairs(const CycleTester& t, const ConsistentSetOpt
       test(i, j);
     }
   }
+  return pairs;
+}
+
+// Every pair with both ends within `window` ids; of the pairs with both ends
+// within `reach` ids, `medium` at most (evenly through them); and `partners`
+// random others per loop closure. Cycles of a few hundred poses are where an
+// aliased group meets the good loop closures of the places it claims to
+// join, with odometry still certain enough to tell; random partners are
+// mostly thousands of poses away. Found through buckets of reach x reach ids.
+// Threads take contiguous ranges of loop closures, whose pairs are joined in
+// order: the result does not depend on the thread count.
+std::vector<TestedPair> SparsePairs(const CycleTester& t, const ConsistentSetOptions& o) {
+  const size_t n = t.size();
+  const int64_t w = std::max(o.window, 1), r = std::max<int64_t>(o.reach, w);
+  Buckets buckets;
+  for (size_t i = 0; i < n; ++i) {
+    const auto [a, b] = t.Ends(i);
+    buckets[{a / r, b / r}].push_back(static_cast<uint32_t>(i));
+  }
+  const int threads = o.threads > 0 ? o.threads
+                                    : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  ThreadPool pool(threads);
+  const size_t parts = static_cast<size_t>(pool.size());
+  std::vector<std::vector<TestedPair>> chunks(parts);
+  // ParallelFor's chunks are [k n / parts, (k + 1) n / parts).
+  pool.ParallelFor(n, [&](size_t begin, size_t end) {
+    size_t k = 0;
+    while (k + 1 < parts && n * (k + 1) / parts <= begin) ++k;
+    chunks[k] = PairsFrom(t, o, buckets, begin, end);
+  }, 64);
+  std::vector<TestedPair> pairs;
+  for (auto& c : chunks) pairs.insert(pairs.end(), c.begin(), c.end());
   return pairs;
 }
 

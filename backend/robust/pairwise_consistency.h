@@ -58,6 +58,9 @@ struct ConsistentSetOptions {
   int medium = 60;
   int partners = 20;
   uint64_t seed = 1;
+  // Threads for the pair tests (0: one per hardware thread); the result is
+  // the same for any count.
+  int threads = 0;
   // Scale the threshold by the variance factor the short cycles show (the
   // median of their chi2 over chi2's median, at most 1): information far
   // looser than the noise tightens the test, never loosens it.

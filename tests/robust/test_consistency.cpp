@@ -179,10 +179,13 @@ TEST(PairwiseConsistency, ExactForFewLoopClosures) {
 }
 
 GraphSolver Solver(bool gn) {
-  return [gn](PoseGraph& x, int iterations) {
+  return [gn](PoseGraph& x, const InnerSolve& limits) {
     GaussNewtonOptions go;
     CeresOptions co;
-    if (iterations > 0) go.max_iterations = co.max_iterations = iterations;
+    if (limits.max_iterations > 0) go.max_iterations = co.max_iterations = limits.max_iterations;
+    if (limits.tolerance > 0)
+      go.function_tolerance = co.function_tolerance = go.gradient_tolerance =
+          co.gradient_tolerance = limits.tolerance;
     return gn ? SolveGaussNewton(x, go) : SolveWithCeres(x, co);
   };
 }

@@ -435,7 +435,7 @@ TEST(Gnc, VerificationRejectsAWrongLoopClosureThatGncKept) {
   SolveWithCeres(bent, QuietCeres());
   const VertexPair wrong{0, 20};
   for (bool gn : {false, true}) {
-    const GraphSolver solver = [&](PoseGraph& x, int) {
+    const GraphSolver solver = [&](PoseGraph& x, const InnerSolve&) {
       return gn ? SolveGaussNewton(x, QuietGn()) : SolveWithCeres(x, QuietCeres());
     };
     OutlierRejectionOptions options;
@@ -464,7 +464,7 @@ TEST(Gnc, WithoutWrongLoopClosuresEveryStageKeepsThemAll) {
   const PoseGraph start = reference;
   SolveWithCeres(reference, QuietCeres());
   const double reference_chi2 = Chi2(reference);
-  const GraphSolver solver = [](PoseGraph& x, int) { return SolveWithCeres(x, QuietCeres()); };
+  const GraphSolver solver = [](PoseGraph& x, const InnerSolve&) { return SolveWithCeres(x, QuietCeres()); };
   for (int window : {0, 5})
     for (bool verify : {false, true})
       for (bool readmit : {false, true}) {
@@ -526,10 +526,14 @@ TEST(Gnc, RejectsHalfAsManyWrongAsGoodFromOdometryWithEitherSolver) {
     OutlierRejectionOptions options;
     const auto result = SolveRejectingOutliers(
         g,
-        [&](PoseGraph& x, int iterations) {
+        [&](PoseGraph& x, const InnerSolve& limits) {
           GaussNewtonOptions go;
           CeresOptions co;
-          if (iterations > 0) go.max_iterations = co.max_iterations = iterations;
+          if (limits.max_iterations > 0)
+            go.max_iterations = co.max_iterations = limits.max_iterations;
+          if (limits.tolerance > 0)
+            go.function_tolerance = co.function_tolerance = go.gradient_tolerance =
+                co.gradient_tolerance = limits.tolerance;
           return gn ? SolveGaussNewton(x, go) : SolveWithCeres(x, co);
         },
         options);
@@ -552,7 +556,7 @@ TEST(Gnc, RejectsTheWrongLoopClosuresWithEitherSolver) {
     const std::set<VertexPair> truth(added.begin(), added.end());
     for (bool gn : {false, true}) {
       PoseGraph g = corrupted;
-      const auto result = SolveRejectingOutliers(g, [&](PoseGraph& x, int) {
+      const auto result = SolveRejectingOutliers(g, [&](PoseGraph& x, const InnerSolve&) {
         return gn ? SolveGaussNewton(x, GaussNewtonOptions()) : SolveWithCeres(x, CeresOptions());
       });
       size_t caught = 0;

@@ -80,7 +80,7 @@ TEST(Options, SolversRefuseInvalidOptions) {
   EXPECT_THROW(IncrementalOptimizer(2, inc), std::invalid_argument);
   OutlierRejectionOptions rejection;
   rejection.restart_chi2_factor = 1;
-  const GraphSolver solve = [](PoseGraph& graph, int) { return SolveGaussNewton(graph, {}); };
+  const GraphSolver solve = [](PoseGraph& graph, const InnerSolve&) { return SolveGaussNewton(graph, {}); };
   EXPECT_THROW(SolveRejectingOutliers(g, solve, rejection), std::invalid_argument);
 }
 

@@ -29,6 +29,8 @@ bool OutlierRejectionOptions::IsValid(std::string* error) const {
     why = "trusted_iterations must not be negative";
   else if (max_passes < 0 || max_verify_rounds < 0)
     why = "max_passes and max_verify_rounds must not be negative";
+  else if (fresh_check_iterations < 0)
+    why = "fresh_check_iterations must not be negative";
   else if (gnc_passes < 1)
     why = "GNC over all loop closures needs at least one pass (gnc_passes)";
   else if (!(readmit_reach >= 0) || !(readmit_tail >= 0))

@@ -89,6 +89,10 @@ struct OutlierRejectionOptions {
   // At the end: the kept graph solved in full from the estimate reached and
   // from `fresh_init` (kFile: the starting estimate), the lower chi2 kept.
   bool final_solve = true;
+  // With final_solve: when the first solve of the kept graph, from GNC's
+  // estimate, takes at least this many iterations, the fresh start is
+  // tried then too, before the verification (0: only at the end).
+  int fresh_check_iterations = 10;
   InitMethod fresh_init = InitMethod::kAuto;
   // Threads for the pairwise tests (0: one per hardware thread); the
   // decision is the same for any count. The solves take the solver's own.

@@ -267,7 +267,7 @@ std::vector<TestedPair> SparsePairs(const CycleTester& t, const ConsistentSetOpt
     size_t k = 0;
     while (k + 1 < parts && n * (k + 1) / parts <= begin) ++k;
     chunks[k] = PairsFrom(t, o, buckets, begin, end);
-  }, 64);
+  }, 16);
   std::vector<TestedPair> pairs;
   for (auto& c : chunks) pairs.insert(pairs.end(), c.begin(), c.end());
   return pairs;

@@ -146,6 +146,28 @@ TEST(PairwiseConsistency, TheLargestConsistentSetLeavesAliasedGroupsOut) {
     }
 }
 
+TEST(PairwiseConsistency, TheSetDoesNotDependOnTheThreadCount) {
+  const Simulation sim = Simulated(2, 800, 8);
+  PoseGraph g = sim.noisy;
+  const size_t good = g.CountEdges(EdgeKind::kLoopClosure);
+  const auto added = AddAliasedLoopClosures(g, static_cast<int>(good / 5), 5, 8, &sim.truth);
+  ASSERT_FALSE(added.empty());
+  ConsistentSetOptions o;
+  o.threshold_chi2 = LoopClosureThreshold(0.999, g.TangentSize(), good + added.size());
+  o.threads = 1;
+  const ConsistentSet one = MaximumConsistentSet(g, o);
+  ASSERT_FALSE(one.exact);
+  for (int threads : {2, 3, 7}) {
+    o.threads = threads;
+    const ConsistentSet many = MaximumConsistentSet(g, o);
+    EXPECT_EQ(many.in, one.in) << threads;
+    EXPECT_EQ(many.supported, one.supported) << threads;
+    EXPECT_EQ(many.tested_pairs, one.tested_pairs) << threads;
+    EXPECT_EQ(many.conflicts, one.conflicts) << threads;
+    EXPECT_EQ(many.variance_factor, one.variance_factor) << threads;
+  }
+}
+
 TEST(PairwiseConsistency, ExactForFewLoopClosures) {
   // Few loop closures: every pair tested, the set found is consistent and
   // no loop closure outside it agrees with all of it (maximal), and it is at

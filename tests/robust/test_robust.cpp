@@ -490,6 +490,20 @@ TEST(Gnc, WithoutWrongLoopClosuresEveryStageKeepsThemAll) {
   bad = OutlierRejectionOptions();
   bad.max_rounds = 0;
   EXPECT_THROW(SolveRejectingOutliers(g, solver, bad), std::invalid_argument);
+  for (double tolerance : {-1e-4, 1.0, std::nan("")}) {
+    bad = OutlierRejectionOptions();
+    bad.inner_tolerance = tolerance;
+    EXPECT_FALSE(bad.IsValid(nullptr)) << tolerance;
+  }
+  bad = OutlierRejectionOptions();
+  bad.gnc_passes = 0;
+  EXPECT_FALSE(bad.IsValid(nullptr));
+  bad = OutlierRejectionOptions();
+  bad.fresh_check_iterations = -1;
+  EXPECT_FALSE(bad.IsValid(nullptr));
+  bad = OutlierRejectionOptions();
+  bad.threads = -1;
+  EXPECT_FALSE(bad.IsValid(nullptr));
 }
 
 TEST(Gnc, LocalSupportConfirmsRunsOfGoodLoopClosuresOnly) {

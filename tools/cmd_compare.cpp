@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "cairn/solvers/ceres_solver.h"
+#include "cairn/solvers/graph_factors.h"
 #include "cairn/solvers/graph_gauss_newton.h"
 #include "cairn/graph/graph_io.h"
 #include "cairn/graph/output_files.h"
@@ -187,6 +188,7 @@ Json CompareJson(const std::string& path, InitMethod init_method, const InitRepo
     init["chosen"] = ToString(init_report.chosen);
     PutNumber(init, "file_chi2", init_report.file_chi2);
     PutNumber(init, "chordal_chi2", init_report.chordal_chi2);  // null: its systems were singular
+    init["robust_cost"] = init_report.robust_cost;  // the two above by the kernel's cost
   }
   j["init"] = std::move(init);
   j["ceres"] = SolverJson(c);
@@ -227,7 +229,7 @@ int RunCompare(int argc, char** argv) {
   outputs.Output(a.json);
   outputs.Check();
   PoseGraph input = ReadInputGraph(a.path);
-  const InitReport init_report = Initialize(input, init_method);
+  const InitReport init_report = Initialize(input, init_method, LossOfChi2(co.loop_closure_loss));
   if (!a.quiet)
     std::fprintf(stderr, "initial estimate: %s, %.4f s, chi2 %.10g\n", ToString(init_method),
                  init_report.time_s, init_report.chi2);

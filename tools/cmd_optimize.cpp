@@ -5,12 +5,14 @@
 #include <sstream>
 
 #include "cairn/solvers/ceres_solver.h"
+#include "cairn/solvers/graph_factors.h"
 #include "cairn/graph/chi2.h"
 #include "cairn/solvers/covariance.h"
 #include "cairn/solvers/graph_gauss_newton.h"
 #include "cairn/graph/graph_io.h"
 #include "cairn/graph/output_files.h"
 #include "cairn/graph/initialization.h"
+#include "cairn/robust/kernel_warm_start.h"
 #include "cairn/robust/outliers.h"
 #include "cairn/solvers/solve_result.h"
 #include "cairn/graph/svg_plot.h"
@@ -44,6 +46,8 @@ struct OptimizeArgs {
   bool reject_outliers = false, no_readmit = false, no_verify = false, no_final = false;
   bool no_scaling = false;
   OutlierRejectionOptions rejection;
+  bool no_kernel_warm_start = false;
+  KernelWarmStartOptions warm_start;
 };
 
 void DeclareSolverOptions(ArgParser& args, OptimizeArgs& a) {
@@ -60,6 +64,12 @@ void DeclareSolverOptions(ArgParser& args, OptimizeArgs& a) {
               "robust loss on loop closures: none, huber:DELTA, cauchy:DELTA (DELTA on the "
               "whitened error, as g2o's kernels) or dcs:PHI (dynamic covariance scaling, PHI "
               "on chi2)");
+  args.Flag("no-kernel-warm-start", &a.no_kernel_warm_start,
+            "with --robust: one plain solve, without warm-up rounds that leave out the loop "
+            "closures the kernel weighs below --kernel-min-weight");
+  args.Option("kernel-min-weight", &a.warm_start.min_weight, "W",
+              "with --robust: warm-up rounds leave out loop closures weighed below W (1e-6), "
+              "then the whole graph is solved from there");
   args.Option("threads", &a.common.threads, "N", "threads for linearisation (0: one per core)");
   args.Option("function-tolerance", &a.common.function_tolerance, "TOL",
               "stop when one step lowers chi2 by less than this fraction");
@@ -232,7 +242,7 @@ bool MakePlan(OptimizeArgs& a, OptimizePlan* p) {
   a.rejection.threads = a.common.threads;
   std::string why;
   if (!p->ceres.IsValid(&why) || !p->gn.IsValid(&why) ||
-      (a.reject_outliers && !a.rejection.IsValid(&why))) {
+      (a.reject_outliers && !a.rejection.IsValid(&why)) || !a.warm_start.IsValid(&why)) {
     PrintError(why);
     return false;
   }
@@ -242,6 +252,19 @@ bool MakePlan(OptimizeArgs& a, OptimizePlan* p) {
 SolveResult Solve(PoseGraph& graph, const OptimizePlan& p) {
   return p.solver == SolverKind::kGaussNewton ? SolveGaussNewton(graph, p.gn)
                                               : SolveWithCeres(graph, p.ceres);
+}
+
+// The main solve without --reject-outliers: with a kernel, warm-started
+// without the loop closures it weighs at nearly nothing (their fill-in, not
+// their weight, is what a corrupted graph's iterations cost).
+SolveResult SolveMain(PoseGraph& graph, const OptimizeArgs& a, const OptimizePlan& p) {
+  if (a.no_kernel_warm_start || a.common.loop_closure_loss.kind == RobustLoss::kNone)
+    return Solve(graph, p);
+  KernelWarmStartOptions o = a.warm_start;
+  o.verbose = !a.quiet;
+  return SolveKernelWarmStarted(
+      graph, a.common.loop_closure_loss,
+      [&](PoseGraph& g, const InnerSolve&) { return Solve(g, p); }, o);
 }
 
 // The rejection with the chosen solver inside; *rejected gets the pairs
@@ -346,6 +369,9 @@ std::string ReportJson(const OptimizeArgs& a, const OptimizePlan& p, const PoseG
   std::ostringstream text;
   WriteReportJson(result, text, context);
   Json report = Json::parse(text.str());
+  // With --robust, init_file_chi2 and init_chordal_chi2 are the kernel's
+  // costs (InitializeAuto).
+  if (p.init == InitMethod::kAuto) report["init_robust_cost"] = t.init.robust_cost;
   // File names are text, whatever they look like.
   report["input"] = a.in;
   report["output"] = a.out;
@@ -411,7 +437,7 @@ int RunOptimize(int argc, char** argv) {
   // Only copied when asked for: the "before" panel of the plot, the file's
   // own estimate whatever the initialisation.
   const PoseGraph before = a.plot.empty() ? PoseGraph(graph.dimension()) : graph;
-  t.init = Initialize(graph, p.init);
+  t.init = Initialize(graph, p.init, LossOfChi2(a.common.loop_closure_loss));
   if (!a.quiet && p.init != InitMethod::kFile)
     std::fprintf(stderr, "initial estimate: %s, %.4f s, chi2 %.10g\n", ToString(p.init),
                  t.init.time_s, t.init.chi2);
@@ -423,7 +449,7 @@ int RunOptimize(int argc, char** argv) {
   const size_t input_closures = graph.CountEdges(EdgeKind::kLoopClosure);
   const SolveResult result = a.reject_outliers
                                  ? SolveRejecting(graph, a, p, &rejected, &rejected_graph)
-                                 : Solve(graph, p);
+                                 : SolveMain(graph, a, p);
   std::vector<Eigen::MatrixXd> covariances;
   // Not from a failed solve: the estimate is no optimum.
   if (!p.covariance_of.empty() && result.usable) {

@@ -316,17 +316,31 @@ const char* ToString(InitMethod method) {
   return "?";
 }
 
-InitReport InitializeAuto(PoseGraph& graph) {
+namespace {
+
+double CostOf(const PoseGraph& graph, const LoopClosureRho& rho) {
+  if (!rho) return Chi2(graph);
+  double sum = 0;
+  for (const Edge& e : graph.edges()) {
+    const double chi2 = EdgeChi2(graph, e);
+    sum += e.kind == EdgeKind::kLoopClosure ? rho(chi2) : chi2;
+  }
+  return sum;
+}
+
+}  // namespace
+
+InitReport InitializeAuto(PoseGraph& graph, const LoopClosureRho& rho) {
   const auto start = std::chrono::steady_clock::now();
   InitReport report;
   report.method = InitMethod::kAuto;
-  report.file_chi2 = Chi2(graph);
+  report.file_chi2 = CostOf(graph, rho);
   std::vector<PoseParams> file;
   file.reserve(graph.vertices().size());
   for (const Vertex& v : graph.vertices()) file.push_back(v.x);
   try {
     InitializeChordal(graph);
-    report.chordal_chi2 = Chi2(graph);
+    report.chordal_chi2 = CostOf(graph, rho);
   } catch (const std::runtime_error&) {
     report.chordal_chi2 = std::numeric_limits<double>::quiet_NaN();
   }
@@ -338,17 +352,24 @@ InitReport InitializeAuto(PoseGraph& graph) {
     for (Vertex& v : graph.vertices()) v.x = file[k++];
   }
   report.chosen = chordal ? InitMethod::kChordal : InitMethod::kFile;
-  report.chi2 = chordal ? report.chordal_chi2 : report.file_chi2;
+  report.robust_cost = static_cast<bool>(rho);
+  report.chi2 = rho ? Chi2(graph) : chordal ? report.chordal_chi2 : report.file_chi2;
   report.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
 }
 
 std::string DescribeAutoChoice(const InitReport& report) {
   const bool chordal = report.chosen == InitMethod::kChordal;
-  char buf[160];
+  char buf[200];
   if (std::isnan(report.chordal_chi2)) {
-    std::snprintf(buf, sizeof buf, "initial estimate (auto): file, chi2 %.10g (chordal: singular)",
-                  report.file_chi2);
+    std::snprintf(buf, sizeof buf, "initial estimate (auto): file, %s %.10g (chordal: singular)",
+                  report.robust_cost ? "robust cost" : "chi2", report.file_chi2);
+  } else if (report.robust_cost) {
+    std::snprintf(buf, sizeof buf,
+                  "initial estimate (auto): %s, robust cost %.10g (%s %.10g), chi2 %.10g",
+                  ToString(report.chosen), chordal ? report.chordal_chi2 : report.file_chi2,
+                  chordal ? "file" : "chordal", chordal ? report.file_chi2 : report.chordal_chi2,
+                  report.chi2);
   } else {
     std::snprintf(buf, sizeof buf, "initial estimate (auto): %s, chi2 %.10g (%s %.10g)",
                   ToString(report.chosen), report.chi2, chordal ? "file" : "chordal",
@@ -357,8 +378,8 @@ std::string DescribeAutoChoice(const InitReport& report) {
   return buf;
 }
 
-InitReport Initialize(PoseGraph& graph, InitMethod method) {
-  if (method == InitMethod::kAuto) return InitializeAuto(graph);
+InitReport Initialize(PoseGraph& graph, InitMethod method, const LoopClosureRho& rho) {
+  if (method == InitMethod::kAuto) return InitializeAuto(graph, rho);
   const auto start = std::chrono::steady_clock::now();
   switch (method) {
     case InitMethod::kAuto: break;  // above

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -46,19 +47,33 @@ struct InitReport {
   // kAuto only: the chi2 of both candidates (chordal: NaN if its linear
   // systems were singular).
   double file_chi2 = 0, chordal_chi2 = 0;
+  // kAuto with a robust kernel: file_chi2 and chordal_chi2 are the robust
+  // costs the choice compared (chi2 stays the plain chi2).
+  bool robust_cost = false;
 };
+
+// A robust kernel on loop closures, as the cost a solve will weigh them by:
+// rho of an edge's chi2 (empty: chi2 itself).
+using LoopClosureRho = std::function<double(double chi2)>;
 
 // Evaluates the estimate the graph holds (the file's vertices; for a file
 // without vertices, the spanning tree the reader chained) and the chordal
 // relaxation, by g2o's chi2, and keeps the lower; a tie keeps the file's.
 // From a start of lower chi2 the solvers are less likely to end in a
 // worse local minimum, and chordal costs less than the solve after it.
-InitReport InitializeAuto(PoseGraph& graph);
+// With `rho`, both are compared by the cost the robust solve will minimise
+// (loop closures through rho): the relaxation weighs every loop closure
+// fully, so wrong ones bend it, and by plain chi2 that bent estimate can
+// look better than an odometry start the kernel would solve from cleanly.
+// The report's file_chi2 and chordal_chi2 are then those robust costs, its
+// chi2 the plain chi2 of the start kept.
+InitReport InitializeAuto(PoseGraph& graph, const LoopClosureRho& rho = {});
 // kAuto's decision in one line, e.g. "initial estimate (auto): chordal, chi2
 // 71.54 (file 4.414e+09)".
 std::string DescribeAutoChoice(const InitReport& report);
 
 // Runs one initialiser on the graph and reports its time and chi-squared.
-InitReport Initialize(PoseGraph& graph, InitMethod method);
+// `rho` is used by kAuto only (InitializeAuto).
+InitReport Initialize(PoseGraph& graph, InitMethod method, const LoopClosureRho& rho = {});
 
 }  // namespace cairn

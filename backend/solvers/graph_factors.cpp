@@ -54,6 +54,16 @@ std::unique_ptr<ceres::LossFunction> MakeLoss(const RobustLoss& loss) {
   return nullptr;
 }
 
+LoopClosureRho LossOfChi2(const RobustLoss& loss) {
+  std::shared_ptr<const ceres::LossFunction> f = MakeLoss(loss);
+  if (!f) return {};
+  return [f](double chi2) {
+    double rho[3];
+    f->Evaluate(chi2, rho);
+    return rho[0];
+  };
+}
+
 void DcsLoss::Evaluate(double s, double rho[3]) const {
   if (s <= phi_) {
     rho[0] = s;

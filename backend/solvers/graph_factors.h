@@ -12,6 +12,7 @@
 #include <optional>
 #include <vector>
 
+#include "cairn/graph/initialization.h"
 #include "cairn/graph/pose_graph.h"
 #include "cairn/solvers/solve_result.h"
 
@@ -33,6 +34,9 @@ LinearizedEdge LinearizeEdge(const PoseGraph& graph, const Edge& edge,
 // Ceres's loss for a RobustLoss (null for none). Ceres's losses act on the
 // squared norm s = |r|^2 with the shapes of g2o's kernels of the same width.
 std::unique_ptr<ceres::LossFunction> MakeLoss(const RobustLoss& loss);
+// The loss as a function of an edge's chi2 (what InitializeAuto compares
+// starts by); empty for kNone.
+LoopClosureRho LossOfChi2(const RobustLoss& loss);
 
 // Lends a caller-owned loss to a problem that takes ownership of its losses
 // (GaussNewtonProblem), so that many residuals can share one.

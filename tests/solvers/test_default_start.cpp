@@ -1,7 +1,8 @@
 // The default start (InitMethod::kAuto): on graphs whose odometry-chained
 // vertices lead both solvers into a bad local minimum, it takes the chordal
 // relaxation and reaches the good one; where the file's vertices are better
-// it keeps them.
+// it keeps them. With a robust kernel on loop closures it compares the
+// starts by the kernel's cost, which wrong loop closures do not dominate.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -13,6 +14,7 @@
 #include "cairn/graph/pose_difference.h"
 #include "cairn/graph/simulate.h"
 #include "cairn/solvers/ceres_solver.h"
+#include "cairn/solvers/graph_factors.h"
 #include "cairn/solvers/graph_gauss_newton.h"
 
 namespace cairn {
@@ -117,6 +119,68 @@ TEST(AutoStart, KeepsTheFileWhenItIsBetter) {
   EXPECT_EQ(init.chi2, init.file_chi2);
   EXPECT_EQ(ComparePoses(graph, optimum).max_translation, 0.0);
   EXPECT_NE(DescribeAutoChoice(init).find("file"), std::string::npos);
+}
+
+SolveResult SolveRobust(PoseGraph& graph, bool gn, const RobustLoss& loss) {
+  SolverOptions common;
+  common.threads = 1;
+  common.loop_closure_loss = loss;
+  if (gn) {
+    GaussNewtonOptions o;
+    static_cast<SolverOptions&>(o) = common;
+    return SolveGaussNewton(graph, o);
+  }
+  CeresOptions o;
+  static_cast<SolverOptions&>(o) = common;
+  return SolveWithCeres(graph, o);
+}
+
+// With wrong loop closures and a robust kernel: the relaxation weighs every
+// loop closure fully and is bent by the wrong ones, yet its plain chi2 is far
+// below the odometry start's (whose wrong loop closures are far off). By the
+// kernel's own cost the odometry start is the better, and DCS from there
+// ends near the truth where from the bent relaxation it ends 12-27 m off
+// (seeds 1, 2, 4, 7, 8). Not always: on seeds 3, 5 and 6 both starts end in
+// poor minima, the relaxation's 0.4-2.6 m off and the odometry's 2.5-3.6 m
+// (this simulation's odometry drifts far and DCS at phi 1 pulls weakly).
+// So the test is over eight seeds: each choice, and the error summed.
+TEST(AutoStart, WithAKernelComparesTheRobustCost) {
+  RobustLoss dcs;
+  dcs.kind = RobustLoss::kDcs;
+  dcs.delta = 1;
+  for (bool gn : {true, false}) {
+    SCOPED_TRACE(gn ? "gn" : "ceres");
+    double error_plain = 0, error_robust = 0;
+    for (uint64_t seed = 1; seed <= 8; ++seed) {
+      SCOPED_TRACE(seed);
+      SimulationOptions o;
+      o.poses = 1000;
+      o.outliers = 150;
+      o.seed = seed;
+      const Simulation sim = Simulate(o);
+
+      PoseGraph plain = sim.noisy;
+      const InitReport by_chi2 = Initialize(plain, InitMethod::kAuto);
+      EXPECT_EQ(by_chi2.chosen, InitMethod::kChordal);  // the trap
+      EXPECT_FALSE(by_chi2.robust_cost);
+
+      PoseGraph robust = sim.noisy;
+      const InitReport by_cost = Initialize(robust, InitMethod::kAuto, LossOfChi2(dcs));
+      EXPECT_TRUE(by_cost.robust_cost);
+      EXPECT_EQ(by_cost.chosen, InitMethod::kFile);
+      EXPECT_LT(by_cost.file_chi2, 1e-2 * by_cost.chordal_chi2);
+      EXPECT_DOUBLE_EQ(by_cost.chi2, Chi2(sim.noisy));  // the plain chi2 of the start kept
+      EXPECT_NE(DescribeAutoChoice(by_cost).find("robust cost"), std::string::npos);
+
+      EXPECT_TRUE(SolveRobust(plain, gn, dcs).usable);
+      EXPECT_TRUE(SolveRobust(robust, gn, dcs).usable);
+      error_plain += Ate(plain, sim.truth);
+      error_robust += Ate(robust, sim.truth);
+    }
+    // Summed over the seeds: about 100 m from the relaxation, 15 m now.
+    EXPECT_GT(error_plain, 50.0);
+    EXPECT_LT(error_robust, 0.25 * error_plain);
+  }
 }
 
 TEST(AutoStart, ParsesAndNames) {

@@ -59,9 +59,10 @@ double Ate(const PoseGraph& estimate, const PoseGraph& truth) {
   return std::sqrt(sum / n);
 }
 
-SolveResult Solve(PoseGraph& graph, bool gn) {
+SolveResult Solve(PoseGraph& graph, bool gn, const RobustLoss& loss = {}) {
   SolverOptions common;
   common.threads = 1;
+  common.loop_closure_loss = loss;
   if (gn) {
     GaussNewtonOptions o;
     static_cast<SolverOptions&>(o) = common;
@@ -121,20 +122,6 @@ TEST(AutoStart, KeepsTheFileWhenItIsBetter) {
   EXPECT_NE(DescribeAutoChoice(init).find("file"), std::string::npos);
 }
 
-SolveResult SolveRobust(PoseGraph& graph, bool gn, const RobustLoss& loss) {
-  SolverOptions common;
-  common.threads = 1;
-  common.loop_closure_loss = loss;
-  if (gn) {
-    GaussNewtonOptions o;
-    static_cast<SolverOptions&>(o) = common;
-    return SolveGaussNewton(graph, o);
-  }
-  CeresOptions o;
-  static_cast<SolverOptions&>(o) = common;
-  return SolveWithCeres(graph, o);
-}
-
 // With wrong loop closures and a robust kernel: the relaxation weighs every
 // loop closure fully and is bent by the wrong ones, yet its plain chi2 is far
 // below the odometry start's (whose wrong loop closures are far off). By the
@@ -172,8 +159,8 @@ TEST(AutoStart, WithAKernelComparesTheRobustCost) {
       EXPECT_DOUBLE_EQ(by_cost.chi2, Chi2(sim.noisy));  // the plain chi2 of the start kept
       EXPECT_NE(DescribeAutoChoice(by_cost).find("robust cost"), std::string::npos);
 
-      EXPECT_TRUE(SolveRobust(plain, gn, dcs).usable);
-      EXPECT_TRUE(SolveRobust(robust, gn, dcs).usable);
+      EXPECT_TRUE(Solve(plain, gn, dcs).usable);
+      EXPECT_TRUE(Solve(robust, gn, dcs).usable);
       error_plain += Ate(plain, sim.truth);
       error_robust += Ate(robust, sim.truth);
     }

@@ -58,6 +58,9 @@ struct OutlierRejectionOptions {
   int trusted_iterations = 20;
   // After that stage, GNC over all loop closures starts where a residual
   // beyond this many times the threshold weighs 0 (mu = 1 / (factor - 1)).
+  // GNC on the trusted ones starts where a residual beyond this many times
+  // the plain c^2 (not the threshold tightened by the variance factor)
+  // weighs 0.
   double restart_chi2_factor = 10;
   // ... and is repeated from its own result, at most gnc_passes times, until
   // the loop closures it keeps no longer change. One by default: a second

@@ -243,6 +243,23 @@ TEST(Gnc, RejectsAliasedGroupsWithEitherSolver) {
     }
 }
 
+// A shared file with aliased wrong loop closures as the robustness table
+// makes them (measured on the clean solution), and that solution.
+struct AliasedFile {
+  PoseGraph reference{2}, corrupted{2};
+  std::set<VertexPair> wrong;
+};
+
+AliasedFile ReadAliased(const std::string& path, int count, int size, uint64_t seed) {
+  AliasedFile f;
+  f.reference = ReadGraph(path);
+  SolveWithCeres(f.reference, CeresOptions());
+  f.corrupted = ReadGraph(path);
+  const auto added = AddAliasedLoopClosures(f.corrupted, count, size, seed, &f.reference);
+  f.wrong.insert(added.begin(), added.end());
+  return f;
+}
+
 // manhattan with 98 wrong loop closures in aliased groups of 10 (seed 995,
 // the robustness table's case): one group links two stretches nothing else
 // links, and GNC keeps it, bent into place (each member fits within 0.1 of
@@ -254,11 +271,10 @@ TEST(Gnc, AWrongRunGncKeepsIsRejectedWhole) {
   CAIRN_LONG_NUMERICAL_TEST();
   const std::string path = testing::DatasetPath("g2o/2d/manhattan.g2o");
   CAIRN_REQUIRE_DATASET(path);
-  PoseGraph reference = ReadGraph(path);
-  SolveWithCeres(reference, CeresOptions());
-  PoseGraph corrupted = ReadGraph(path);
-  const auto added = AddAliasedLoopClosures(corrupted, 98, 10, 995, &reference);
-  const std::set<VertexPair> wrong(added.begin(), added.end());
+  const AliasedFile f = ReadAliased(path, 98, 10, 995);
+  const PoseGraph& reference = f.reference;
+  const PoseGraph& corrupted = f.corrupted;
+  const std::set<VertexPair>& wrong = f.wrong;
   for (int window : {0, 3})
     for (bool gn : {false, true}) {
       if (window == 0 && gn) continue;
@@ -344,6 +360,28 @@ TEST(Gnc, HeavyTailedGoodLoopClosuresComeBack) {
     EXPECT_EQ(r.rejected.size() - caught, 0u) << "seed " << seed;
     EXPECT_LT(Rms(g, reference), 1e-3) << "seed " << seed;
   }
+}
+
+// sphere2500's information is far looser than its noise (variance factor
+// 0.03, so GNC's threshold is tightened to 1.2 against a plain 41), and
+// the least squares on the trusted loop closures is capped at 20
+// iterations: with 20% wrong ones in aliased groups of 10 (the robustness
+// table's case) its estimate is still bent. GNC on the trusted ones then
+// started with everything beyond 10 times the tightened threshold at
+// weight 0: 1,056 of 2,491 good ones never came back, and Gauss-Newton's
+// kept graph, held by too few, settled 78 m off.
+TEST(Gnc, TrustedLoopClosuresFarFromAnUnfinishedSolveStayIn) {
+  CAIRN_LONG_NUMERICAL_TEST();
+  const std::string path = testing::DatasetPath("g2o/3d/sphere2500.g2o");
+  CAIRN_REQUIRE_DATASET(path);
+  const AliasedFile f = ReadAliased(path, 490, 10, 1092);
+  PoseGraph g = f.corrupted;
+  const auto r = SolveRejectingOutliers(g, Solver(true));
+  size_t caught = 0;
+  for (const auto& p : r.rejected) caught += f.wrong.count(p);
+  EXPECT_EQ(caught, f.wrong.size());
+  EXPECT_EQ(r.rejected.size(), caught);
+  EXPECT_LT(Rms(g, f.reference), 1e-3);
 }
 
 TEST(Gnc, NinetyPercentRandomWrongLoopClosures) {

@@ -25,8 +25,6 @@ bool OutlierRejectionOptions::IsValid(std::string* error) const {
           "must not be negative";
   else if (!(restart_chi2_factor > 1))
     why = "restart_chi2_factor must exceed 1";
-  else if (!(trusted_start_share >= 0 && trusted_start_share <= 1))
-    why = "trusted_start_share must lie in [0, 1]";
   else if (trusted_iterations < 0)
     why = "trusted_iterations must not be negative";
   else if (max_passes < 0 || max_verify_rounds < 0)

@@ -56,14 +56,11 @@ struct OutlierRejectionOptions {
   // Iterations of the first least squares on those trusted loop closures
   // (from fresh_init), before GNC on them.
   int trusted_iterations = 20;
-  // GNC on them then starts where a residual beyond restart_chi2_factor
-  // times the threshold weighs 0, that reach widened (up to the factor
-  // times the plain c^2) until this share of them lie within it: most of
-  // them are good, so many beyond it mean an estimate still bent, not many
-  // wrong ones.
-  double trusted_start_share = 0.9;
   // After that stage, GNC over all loop closures starts where a residual
   // beyond this many times the threshold weighs 0 (mu = 1 / (factor - 1)).
+  // GNC on the trusted ones starts where a residual beyond this many times
+  // the plain c^2 (not the threshold tightened by the variance factor)
+  // weighs 0.
   double restart_chi2_factor = 10;
   // ... and is repeated from its own result, at most gnc_passes times, until
   // the loop closures it keeps no longer change. One by default: a second

@@ -369,19 +369,30 @@ TEST(Gnc, HeavyTailedGoodLoopClosuresComeBack) {
 // table's case) its estimate is still bent. GNC on the trusted ones then
 // started with everything beyond 10 times the tightened threshold at
 // weight 0: 1,056 of 2,491 good ones never came back, and Gauss-Newton's
-// kept graph, held by too few, settled 78 m off.
+// kept graph, held by too few, settled 78 m off. parking-garage (variance
+// factor 0.001) with 20% in groups of 5 ended 47 m off the same way, and
+// 90% of its trusted loop closures were within that reach: widening it
+// only that far was not enough.
 TEST(Gnc, TrustedLoopClosuresFarFromAnUnfinishedSolveStayIn) {
   CAIRN_LONG_NUMERICAL_TEST();
-  const std::string path = testing::DatasetPath("g2o/3d/sphere2500.g2o");
-  CAIRN_REQUIRE_DATASET(path);
-  const AliasedFile f = ReadAliased(path, 490, 10, 1092);
-  PoseGraph g = f.corrupted;
-  const auto r = SolveRejectingOutliers(g, Solver(true));
-  size_t caught = 0;
-  for (const auto& p : r.rejected) caught += f.wrong.count(p);
-  EXPECT_EQ(caught, f.wrong.size());
-  EXPECT_EQ(r.rejected.size(), caught);
-  EXPECT_LT(Rms(g, f.reference), 1e-3);
+  struct Case {
+    const char* file;
+    int count, size;
+    uint64_t seed;  // scripts/robustness.sh's for the case
+  };
+  for (const Case& c : {Case{"g2o/3d/sphere2500.g2o", 490, 10, 1092},
+                        Case{"g2o/3d/parking-garage.g2o", 923, 5, 1482}}) {
+    const std::string path = testing::DatasetPath(c.file);
+    CAIRN_REQUIRE_DATASET(path);
+    const AliasedFile f = ReadAliased(path, c.count, c.size, c.seed);
+    PoseGraph g = f.corrupted;
+    const auto r = SolveRejectingOutliers(g, Solver(true));
+    size_t caught = 0;
+    for (const auto& p : r.rejected) caught += f.wrong.count(p);
+    EXPECT_EQ(caught, f.wrong.size()) << c.file;
+    EXPECT_EQ(r.rejected.size(), caught) << c.file;
+    EXPECT_LT(Rms(g, f.reference), 1e-3) << c.file;
+  }
 }
 
 TEST(Gnc, NinetyPercentRandomWrongLoopClosures) {

@@ -248,8 +248,10 @@ double ConsistentVarianceFactor(const RejectionState& s, size_t n_confirmed) {
 // exact with this reach. Over all loop closures the start is this stage's
 // result, and the tightened reach stays: there it keeps the random wrong
 // ones, by the thousand, out of every solve.
+// (gnc_c2 <= c2, the variance factors being at most 1, and the factor
+// exceeds 1: the reach lies beyond GNC's threshold, mu is positive.)
 double TrustedRestartMu(const RejectionState& s) {
-  const double reach = std::max(s.options.restart_chi2_factor * s.c2, 2 * s.gnc_c2);
+  const double reach = s.options.restart_chi2_factor * s.c2;
   return s.gnc_c2 / (reach - s.gnc_c2);
 }
 

@@ -124,8 +124,10 @@ void DeclareOutlierOptions(ArgParser& args, OptimizeArgs& a) {
               "those no neighbour agrees with, goes through GNC first, alone (0: no such "
               "stage)");
   args.Option("outlier-restart", &r.restart_chi2_factor, "F",
-              "with --reject-outliers: after that stage, GNC over all loop closures starts "
-              "with those beyond F times the threshold at weight 0");
+              "with --reject-outliers: GNC starts with the loop closures beyond F times the "
+              "threshold at weight 0 (on the trusted ones, beyond F times the plain "
+              "threshold; over all of them, F times the threshold tightened by the variance "
+              "factor)");
   args.Flag("no-outlier-readmission", &a.no_readmit,
             "with --reject-outliers: do not take back rejected loop closures whose "
             "innovation statistic at the final estimate is within the threshold");

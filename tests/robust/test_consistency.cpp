@@ -260,6 +260,21 @@ AliasedFile ReadAliased(const std::string& path, int count, int size, uint64_t s
   return f;
 }
 
+// --reject-outliers on the file with the chosen solver: every wrong loop
+// closure rejected, no good one, and the clean solution reached. Returns the
+// result for further checks.
+OutlierRejectionResult ExpectExactRejection(const AliasedFile& f, bool gn,
+                                            const std::string& what) {
+  PoseGraph g = f.corrupted;
+  const auto r = SolveRejectingOutliers(g, Solver(gn));
+  size_t caught = 0;
+  for (const auto& p : r.rejected) caught += f.wrong.count(p);
+  EXPECT_EQ(caught, f.wrong.size()) << what;
+  EXPECT_EQ(r.rejected.size(), caught) << what;
+  EXPECT_LT(Rms(g, f.reference), 1e-3) << what;
+  return r;
+}
+
 // manhattan with 98 wrong loop closures in aliased groups of 10 (seed 995,
 // the robustness table's case): one group links two stretches nothing else
 // links, and GNC keeps it, bent into place (each member fits within 0.1 of
@@ -384,14 +399,7 @@ TEST(Gnc, TrustedLoopClosuresFarFromAnUnfinishedSolveStayIn) {
                         Case{"g2o/3d/parking-garage.g2o", 923, 5, 1482}}) {
     const std::string path = testing::DatasetPath(c.file);
     CAIRN_REQUIRE_DATASET(path);
-    const AliasedFile f = ReadAliased(path, c.count, c.size, c.seed);
-    PoseGraph g = f.corrupted;
-    const auto r = SolveRejectingOutliers(g, Solver(true));
-    size_t caught = 0;
-    for (const auto& p : r.rejected) caught += f.wrong.count(p);
-    EXPECT_EQ(caught, f.wrong.size()) << c.file;
-    EXPECT_EQ(r.rejected.size(), caught) << c.file;
-    EXPECT_LT(Rms(g, f.reference), 1e-3) << c.file;
+    ExpectExactRejection(ReadAliased(path, c.count, c.size, c.seed), true, c.file);
   }
 }
 
@@ -409,15 +417,8 @@ TEST(Gnc, AWrongRunIsWeighedAtTheDataScale) {
   CAIRN_LONG_NUMERICAL_TEST();
   const std::string path = testing::DatasetPath("g2o/3d/parking-garage.g2o");
   CAIRN_REQUIRE_DATASET(path);
-  const AliasedFile f = ReadAliased(path, 923, 10, 1492);
-  PoseGraph g = f.corrupted;
-  const auto r = SolveRejectingOutliers(g, Solver(true));
-  size_t caught = 0;
-  for (const auto& p : r.rejected) caught += f.wrong.count(p);
-  EXPECT_EQ(caught, f.wrong.size());
-  EXPECT_EQ(r.rejected.size(), caught);
+  const auto r = ExpectExactRejection(ReadAliased(path, 923, 10, 1492), true, "gn");
   EXPECT_GE(r.verified, 10);
-  EXPECT_LT(Rms(g, f.reference), 1e-3);
 }
 
 // smallGrid3D with 9 wrong loop closures in aliased groups of 5 (the
@@ -436,16 +437,8 @@ TEST(Gnc, AMemberOfARejectedRunGoesWithIt) {
   };
   for (const Case& c : {Case{9, 5, 1185}, Case{17, 10, 1191}}) {
     const AliasedFile f = ReadAliased(path, c.count, c.size, c.seed);
-    for (bool gn : {false, true}) {
-      PoseGraph g = f.corrupted;
-      const auto r = SolveRejectingOutliers(g, Solver(gn));
-      size_t caught = 0;
-      for (const auto& p : r.rejected) caught += f.wrong.count(p);
-      const std::string what = "seed " + std::to_string(c.seed) + (gn ? " gn" : " ceres");
-      EXPECT_EQ(caught, f.wrong.size()) << what;
-      EXPECT_EQ(r.rejected.size(), caught) << what;
-      EXPECT_LT(Rms(g, f.reference), 1e-3) << what;
-    }
+    for (bool gn : {false, true})
+      ExpectExactRejection(f, gn, "seed " + std::to_string(c.seed) + (gn ? " gn" : " ceres"));
   }
 }
 
@@ -459,14 +452,7 @@ TEST(Gnc, ARunRejectedWithdrawsTheVerdictsItBent) {
   CAIRN_LONG_NUMERICAL_TEST();
   const std::string path = testing::DatasetPath("g2o/2d/manhattan.g2o");
   CAIRN_REQUIRE_DATASET(path);
-  const AliasedFile f = ReadAliased(path, 98, 10, 1002);
-  PoseGraph g = f.corrupted;
-  const auto r = SolveRejectingOutliers(g, Solver(true));
-  size_t caught = 0;
-  for (const auto& p : r.rejected) caught += f.wrong.count(p);
-  EXPECT_EQ(caught, f.wrong.size());
-  EXPECT_EQ(r.rejected.size(), caught);
-  EXPECT_LT(Rms(g, f.reference), 1e-3);
+  ExpectExactRejection(ReadAliased(path, 98, 10, 1002), true, "gn");
 }
 
 TEST(Gnc, NinetyPercentRandomWrongLoopClosures) {

@@ -33,6 +33,8 @@ struct SE2PointFactor {
   }
 
   static ceres::CostFunction* Create(const Eigen::Vector2d& z, const Eigen::Matrix2d& info);
+  // Create's cost function evaluated without the object (autodiff_evaluate.h).
+  static bool Evaluate(const Eigen::Vector2d& z, const Eigen::Matrix2d& info, const double* const* p, double* r, double** J);
 
  private:
   Eigen::Vector2d z_;
@@ -61,6 +63,9 @@ struct SE3PointFactor {
 
   static ceres::CostFunction* Create(const Eigen::Vector3d& z, const Eigen::Quaterniond& q_offset,
                                      const Eigen::Vector3d& t_offset, const Eigen::Matrix3d& info);
+  // Create's cost function evaluated without the object (autodiff_evaluate.h).
+  static bool Evaluate(const Eigen::Vector3d& z, const Eigen::Quaterniond& q_offset,
+                       const Eigen::Vector3d& t_offset, const Eigen::Matrix3d& info, const double* const* p, double* r, double** J);
 
  private:
   Eigen::Vector3d z_;
@@ -85,6 +90,8 @@ struct PointPriorFactor {
   }
 
   static ceres::CostFunction* Create(const Vec& z, const Mat& info);
+  // Create's cost function evaluated without the object (autodiff_evaluate.h).
+  static bool Evaluate(const Vec& z, const Mat& info, const double* const* p, double* r, double** J);
 
  private:
   Vec z_;

@@ -39,6 +39,8 @@ struct SE2BetweenFactor {
 
   // Owned by the caller (Ceres's Problem takes ownership once added).
   static ceres::CostFunction* Create(const Eigen::Vector3d& z, const Eigen::Matrix3d& info);
+  // Create's cost function evaluated without the object (autodiff_evaluate.h).
+  static bool Evaluate(const Eigen::Vector3d& z, const Eigen::Matrix3d& info, const double* const* p, double* r, double** J);
 
  private:
   Eigen::Vector3d z_;
@@ -62,6 +64,8 @@ struct SE2PriorFactor {
   }
 
   static ceres::CostFunction* Create(const Eigen::Vector3d& z, const Eigen::Matrix3d& info);
+  // Create's cost function evaluated without the object (autodiff_evaluate.h).
+  static bool Evaluate(const Eigen::Vector3d& z, const Eigen::Matrix3d& info, const double* const* p, double* r, double** J);
 
  private:
   Eigen::Vector3d z_;

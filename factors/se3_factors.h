@@ -42,6 +42,9 @@ struct SE3BetweenFactor {
 
   static ceres::CostFunction* Create(const Eigen::Quaterniond& qz, const Eigen::Vector3d& tz,
                                      const Matrix6d& info);
+  // Create's cost function evaluated without the object (autodiff_evaluate.h).
+  static bool Evaluate(const Eigen::Quaterniond& qz, const Eigen::Vector3d& tz,
+                       const Matrix6d& info, const double* const* p, double* r, double** J);
 
  private:
   Eigen::Quaterniond qz_inv_;
@@ -71,6 +74,9 @@ struct SE3PriorFactor {
 
   static ceres::CostFunction* Create(const Eigen::Quaterniond& qz, const Eigen::Vector3d& tz,
                                      const Matrix6d& info);
+  // Create's cost function evaluated without the object (autodiff_evaluate.h).
+  static bool Evaluate(const Eigen::Quaterniond& qz, const Eigen::Vector3d& tz,
+                       const Matrix6d& info, const double* const* p, double* r, double** J);
 
  private:
   Eigen::Quaterniond qz_inv_;

@@ -256,9 +256,11 @@ struct Half {
       if (scatter[k] >= 0) from.push_back(static_cast<int>(k)), to.push_back(scatter[k]);
   }
 
+  // `values`: H in the caller's layout, or null when written in place.
   void Factorize(const double* values) {
     double* mx = static_cast<double*>(m->x);
-    for (size_t t = 0; t < from.size(); ++t) mx[to[t]] = values[from[t]];
+    if (values)
+      for (size_t t = 0; t < from.size(); ++t) mx[to[t]] = values[from[t]];
     ok = cholmod_factorize(m, factor, common.get()) && common->status == CHOLMOD_OK &&
          factor->minor == factor->n;
     if (ok && !factor->is_ll)
@@ -435,17 +437,58 @@ class DomainCholmod final : public SparseCholesky {
 
   double* values() override { return whole_ ? whole_->values() : values_.data(); }
 
+  // Each entry goes to the half that holds it; C's, which both halves
+  // hold, to the first half's, copied to the second's at each Factorize.
+  bool TakeValuesInPlace(ValuePlaces* places) override {
+    if (whole_) return whole_->TakeValuesInPlace(places);
+    if (in_place_ || !half_[0].m || !half_[1].m) return false;  // taken already, or none
+    constexpr uint32_t kNowhere = 0xffffffffu;
+    places->index.assign(values_.size(), kNowhere);
+    auto place = [&](int g) {
+      const Half& h = half_[g];
+      places->arrays[g] = static_cast<double*>(h.m->x);
+      for (size_t t = 0; t < h.from.size(); ++t)
+        places->index[h.from[t]] = (static_cast<uint32_t>(g) << 31) | static_cast<uint32_t>(h.to[t]);
+    };
+    const uint32_t mask = 0x7fffffffu;
+    place(1);
+    c_copies_.clear();
+    for (const Entry& e : c_entries_) c_copies_.push_back({0, static_cast<int>(places->index[e.k] & mask)});
+    place(0);
+    for (size_t c = 0; c < c_entries_.size(); ++c) {
+      c_copies_[c].first = static_cast<int>(places->index[c_entries_[c].k] & mask);
+      c_entries_[c].k = static_cast<size_t>(c_copies_[c].first);
+    }
+    for (uint32_t t : places->index)
+      if (t == kNowhere) throw std::logic_error("domain Cholesky: an entry of H has no place");
+    std::vector<double>().swap(values_);
+    for (Half& h : half_) {
+      std::vector<int>().swap(h.from);
+      std::vector<int>().swap(h.to);
+    }
+    in_place_ = true;
+    return true;
+  }
+
   bool Factorize() override {
     if (whole_) return whole_->Factorize();
+    const double* values = in_place_ ? nullptr : values_.data();
+    if (in_place_) {
+      const double* first = static_cast<const double*>(half_[0].m->x);
+      double* second = static_cast<double*>(half_[1].m->x);
+      for (const auto& [p0, p1] : c_copies_) second[p1] = first[p0];
+    }
     SerialLinearAlgebraScope serial;
     pool_->ParallelFor(2, [&](size_t begin, size_t end) {
       SerialLinearAlgebraScope serial_here;  // OpenMP's setting is per thread
-      for (size_t g = begin; g < end; ++g) half_[g].Factorize(values_.data());
+      for (size_t g = begin; g < end; ++g) half_[g].Factorize(values);
     }, 1);
     if (!half_[0].ok || !half_[1].ok) return false;
     if (top_.empty()) return true;
     s_ = half_[0].dd + half_[1].dd;
-    for (const Entry& e : c_entries_) s_(std::max(e.i, e.j), std::min(e.i, e.j)) -= values_[e.k];
+    // C's entries: in the caller's values, or (in place) in the first half's.
+    const double* c_values = in_place_ ? static_cast<const double*>(half_[0].m->x) : values_.data();
+    for (const Entry& e : c_entries_) s_(std::max(e.i, e.j), std::min(e.i, e.j)) -= c_values[e.k];
     schur_.compute(s_);
     return schur_.info() == Eigen::Success;
   }
@@ -517,6 +560,8 @@ class DomainCholmod final : public SparseCholesky {
   };
 
   void Release() {
+    in_place_ = false;
+    c_copies_.clear();
     whole_.reset();
     for (Half& h : half_) {
       h.Release();
@@ -546,7 +591,9 @@ class DomainCholmod final : public SparseCholesky {
   std::vector<int> given_, used_;
   Half half_[2];
   std::vector<int> top_;          // the separator's unknowns, in order
-  std::vector<Entry> c_entries_;  // entries of H in C: index, and place in T
+  std::vector<Entry> c_entries_;  // entries of H in C: index (in place: in the first half), place in T
+  std::vector<std::pair<int, int>> c_copies_;  // in place: C's entries, first half -> second
+  bool in_place_ = false;
   std::vector<double> values_;    // H's values, as the caller writes them
   Eigen::MatrixXd s_;                   // S, lower triangle
   Eigen::LLT<Eigen::MatrixXd, Eigen::Lower> schur_;

@@ -91,10 +91,24 @@ class Cholmod final : public SparseCholesky {
 
   double* values() override { return static_cast<double*>(a_->x); }
 
+  bool TakeValuesInPlace(ValuePlaces* places) override {
+    if (in_place_) return false;  // taken already: scatter_ is gone
+    places->arrays[0] = static_cast<double*>(permuted_->x);
+    places->arrays[1] = nullptr;
+    places->index.assign(scatter_.begin(), scatter_.end());
+    std::vector<int>().swap(scatter_);
+    // a_ keeps its pattern, which Extend compares.
+    cholmod_sparse_xtype(CHOLMOD_PATTERN, a_, common_.get());
+    in_place_ = true;
+    return true;
+  }
+
   bool Factorize() override {
-    const double* from = static_cast<const double*>(a_->x);
-    double* to = static_cast<double*>(permuted_->x);
-    for (size_t k = 0; k < scatter_.size(); ++k) to[scatter_[k]] = from[k];
+    if (!in_place_) {
+      const double* from = static_cast<const double*>(a_->x);
+      double* to = static_cast<double*>(permuted_->x);
+      for (size_t k = 0; k < scatter_.size(); ++k) to[scatter_[k]] = from[k];
+    }
     SerialLinearAlgebraScope serial;
     const int ok = cholmod_factorize(permuted_, factor_, common_.get());
     return ok && common_->status == CHOLMOD_OK;
@@ -126,6 +140,7 @@ class Cholmod final : public SparseCholesky {
 
  private:
   void Release(bool keep_pattern = false) {
+    in_place_ = false;
     if (factor_) cholmod_free_factor(&factor_, common_.get());
     if (a_ && !keep_pattern) cholmod_free_sparse(&a_, common_.get());
     if (permuted_) cholmod_free_sparse(&permuted_, common_.get());
@@ -199,6 +214,7 @@ class Cholmod final : public SparseCholesky {
   std::vector<int> scatter_;            // entry k of a_ goes to scatter_[k] of permuted_
   cholmod_factor* factor_ = nullptr;
   bool supernodal_ = false;
+  bool in_place_ = false;  // the caller writes into permuted_ (TakeValuesInPlace)
   int mode_ = CHOLMOD_AUTO;  // as asked: supernodal, simplicial or CHOLMOD's choice
   cholmod_dense *b_ = nullptr, *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;
   int n_ = 0;

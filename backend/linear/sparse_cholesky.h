@@ -2,6 +2,7 @@
 // ordering) once, then only numeric factorisations, as Gauss-Newton needs.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,6 +15,18 @@ namespace cairn {
 // CreateDomainCholesky in domain_cholesky.h; solvers/linear_solver.h's
 // CholeskyKind is the caller's choice among all of them.)
 enum class Factorization { kSupernodal, kSimplicial, kSupernodalOrSimplicial, kEigenLDLT };
+
+// Where each entry of the caller's layout lives in a factorisation's own
+// storage (up to two arrays): entry k is arrays[index[k] >> 31] at
+// position index[k] & 0x7fffffff.
+struct ValuePlaces {
+  double* arrays[2] = {nullptr, nullptr};
+  std::vector<uint32_t> index;
+  double& operator[](size_t k) const {
+    const uint32_t t = index[k];
+    return arrays[t >> 31][t & 0x7fffffffu];
+  }
+};
 
 class SparseCholesky {
  public:
@@ -38,6 +51,14 @@ class SparseCholesky {
   }
   // The matrix's values, in the order of `rows`; callers write into it.
   virtual double* values() = 0;
+  // Instead of values(): the caller writes each entry where the
+  // factorisation reads it, and the copy of the matrix in the caller's
+  // layout (and the map into its own) is freed; at a million 2D poses they
+  // were 12 bytes per entry of H, 240 MB. True when the backend can; then
+  // values() is no longer valid until the next Analyze or Extend, after
+  // which the places must be taken again. Once per Analyze or Extend: a
+  // second call returns false (the map it would need is freed).
+  virtual bool TakeValuesInPlace(ValuePlaces* /*places*/) { return false; }
   // False when the matrix is not positive definite.
   virtual bool Factorize() = 0;
   // x = A^-1 b, with the last factorisation. x and b may not alias.

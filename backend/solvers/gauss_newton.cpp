@@ -32,9 +32,18 @@ struct GaussNewtonProblem::Block {
 };
 
 struct GaussNewtonProblem::Residual {
-  std::unique_ptr<ceres::CostFunction> cost;
+  std::unique_ptr<ceres::CostFunction> cost;  // null for a family's member
+  const ResidualFamily* family = nullptr;
+  size_t member = 0;
   std::unique_ptr<ceres::LossFunction> loss;
-  std::vector<int> blocks;
+  int first_block = 0;  // its blocks are residual_blocks_[first_block, + arity)
+  int arity = 0;
+  int m = 0;  // residuals
+
+  bool Evaluate(const double* const* params, double* r, double** jacobians) const {
+    return cost ? cost->Evaluate(params, r, jacobians)
+                : family->Evaluate(member, params, r, jacobians);
+  }
 };
 
 // Everything a solve needs, allocated once before the first iteration.
@@ -78,6 +87,9 @@ struct GaussNewtonProblem::Workspace {
   double damping_floor = 0;
   std::vector<double> b, dx, x_saved, b_saved;
   std::unique_ptr<SparseCholesky> cholesky;  // null for kQR
+  // H's values where the factorisation reads them (places.index empty:
+  // in cholesky->values(), the caller's layout).
+  ValuePlaces places;
   // kQR: A = [J; sqrt(lambda D)] in compressed columns, each column's
   // Jacobian entries then its damping row; for each of A's values its
   // index in jac_local (-1: the damping row), and where each column begins.
@@ -111,6 +123,7 @@ void GaussNewtonProblem::Reserve(size_t blocks, size_t residuals) {
   blocks_.reserve(blocks);
   block_index_.reserve(blocks);
   residuals_.reserve(residuals);
+  residual_blocks_.reserve(2 * residuals);
 }
 
 void GaussNewtonProblem::AddParameterBlock(double* values, int size,
@@ -142,14 +155,40 @@ void GaussNewtonProblem::AddResidualBlock(ceres::CostFunction* cost, ceres::Loss
   Residual r;
   r.cost.reset(cost);
   r.loss.reset(loss);
+  r.m = cost->num_residuals();
   const auto& sizes = cost->parameter_block_sizes();
   if (sizes.size() != blocks.size())
     throw std::invalid_argument("cost function takes a different number of parameter blocks");
+  AddResidual(std::move(r), blocks, std::vector<int>(sizes.begin(), sizes.end()));
+}
+
+void GaussNewtonProblem::AddResidualBlock(const ResidualFamily* family, size_t member,
+                                          ceres::LossFunction* loss,
+                                          const std::vector<double*>& blocks,
+                                          const std::vector<int>& block_sizes) {
+  Residual r;
+  r.family = family;
+  r.member = member;
+  r.loss.reset(loss);
+  r.m = family->NumResiduals(member);
+  if (block_sizes.size() != blocks.size())
+    throw std::invalid_argument("a residual's blocks and their sizes differ in number");
+  AddResidual(std::move(r), blocks, block_sizes);
+}
+
+void GaussNewtonProblem::AddResidual(Residual r, const std::vector<double*>& blocks,
+                                     const std::vector<int>& sizes) {
+  r.first_block = static_cast<int>(residual_blocks_.size());
+  r.arity = static_cast<int>(blocks.size());
   for (size_t k = 0; k < blocks.size(); ++k) {
     AddParameterBlock(blocks[k], sizes[k]);
-    r.blocks.push_back(block_index_.at(blocks[k]));
+    residual_blocks_.push_back(block_index_.at(blocks[k]));
   }
   residuals_.push_back(std::move(r));
+}
+
+GaussNewtonProblem::BlockList GaussNewtonProblem::BlocksOf(const Residual& r) const {
+  return BlockList{residual_blocks_.data() + r.first_block, static_cast<size_t>(r.arity)};
 }
 
 namespace {
@@ -314,10 +353,10 @@ double GaussNewtonProblem::Chi2() {
   std::vector<double> r;
   std::vector<const double*> params;
   for (const Residual& res : residuals_) {
-    r.resize(res.cost->num_residuals());
+    r.resize(res.m);
     params.clear();
-    for (int b : res.blocks) params.push_back(blocks_[b].values);
-    if (!res.cost->Evaluate(params.data(), r.data(), nullptr))
+    for (int b : BlocksOf(res)) params.push_back(blocks_[b].values);
+    if (!res.Evaluate(params.data(), r.data(), nullptr))
       return std::numeric_limits<double>::quiet_NaN();
     double s = 0;
     for (double v : r) s += v * v;
@@ -365,6 +404,7 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
   std::vector<int> col_ptr, rows;
   PlanPattern(col_blocks, &col_ptr, &rows);
   AnalyzePattern(&previous, col_ptr, rows);
+  if (w.cholesky && w.n > 0 && !w.cholesky->TakeValuesInPlace(&w.places)) w.places = ValuePlaces();
 }
 
 // Variables: non-constant blocks that some residual touches, in order.
@@ -372,7 +412,7 @@ void GaussNewtonProblem::NumberVariables() {
   Workspace& w = *ws_;
   std::vector<bool> used(blocks_.size(), false);
   for (const Residual& r : residuals_)
-    for (int b : r.blocks) used[b] = true;
+    for (int b : BlocksOf(r)) used[b] = true;
   std::vector<int>& variables = w.variables;
   for (size_t i = 0; i < blocks_.size(); ++i) {
     Block& b = blocks_[i];
@@ -388,7 +428,8 @@ void GaussNewtonProblem::NumberVariables() {
     w.max_tangent = std::max(w.max_tangent, b.tangent);
     w.max_size = std::max(w.max_size, b.size);
   }
-  for (const Residual& r : residuals_) w.max_arity = std::max(w.max_arity, r.blocks.size());
+  for (const Residual& r : residuals_)
+    w.max_arity = std::max(w.max_arity, static_cast<size_t>(r.arity));
 }
 
 // Residual and Jacobian storage, and the manifolds' PlusJacobians.
@@ -399,17 +440,18 @@ void GaussNewtonProblem::AllocateJacobians() {
   w.slot_start.resize(residuals_.size() + 1);
   for (size_t k = 0; k < residuals_.size(); ++k) {
     w.slot_start[k] = slots;
-    slots += static_cast<int>(residuals_[k].blocks.size());
+    slots += residuals_[k].arity;
   }
   w.slot_start[residuals_.size()] = slots;
   w.jac_local_off.resize(slots);
   for (size_t k = 0; k < residuals_.size(); ++k) {
-    const int m = residuals_[k].cost->num_residuals();
+    const int m = residuals_[k].m;
     w.residual_offset[k] = r_total;
     r_total += m;
     size_t ambient = 0;
-    for (size_t p = 0; p < residuals_[k].blocks.size(); ++p) {
-      const Block& blk = blocks_[residuals_[k].blocks[p]];
+    const BlockList rb = BlocksOf(residuals_[k]);
+    for (size_t p = 0; p < rb.size(); ++p) {
+      const Block& blk = blocks_[rb[p]];
       const int slot = w.slot_start[k] + static_cast<int>(p);
       w.jac_local_off[slot] = blk.variable >= 0 ? jl_total : -1;
       if (blk.variable >= 0) {
@@ -441,7 +483,7 @@ void GaussNewtonProblem::AllocateJacobians() {
 template <typename F>
 void GaussNewtonProblem::ForEachSlot(F&& f) const {
   for (size_t k = 0; k < residuals_.size(); ++k) {
-    const auto& rb = residuals_[k].blocks;
+    const BlockList rb = BlocksOf(residuals_[k]);
     for (size_t p = 0; p < rb.size(); ++p) {
       const int vp = blocks_[rb[p]].variable;
       if (vp >= 0) f(static_cast<int>(k), static_cast<int>(p), vp);
@@ -473,14 +515,14 @@ std::vector<int> GaussNewtonProblem::PlanNormalMatrix() {
   };
   auto for_each_pair = [&](auto&& f) {
     ForEachSlot([&](int k, int p, int vp) {
-      const auto& rb = residuals_[k].blocks;
+      const BlockList rb = BlocksOf(residuals_[k]);
       for (size_t q = 0; q < rb.size(); ++q) {
         const int vq = blocks_[rb[q]].variable;
         if (vq < 0 || vp > vq) continue;
         if (vp == vq && p != static_cast<int>(q)) continue;  // a block listed twice is not supported below
         const int slot = w.slot_start[k];
         f(vp, vq, Workspace::Contribution{w.jac_local_off[slot + p], w.jac_local_off[slot + q],
-                                          residuals_[k].cost->num_residuals()});
+                                          residuals_[k].m});
       }
     });
   };
@@ -561,7 +603,7 @@ void GaussNewtonProblem::PlanJacobian() {
       for (int t = w.gradient_start[v]; t < w.gradient_start[v + 1]; ++t) {
         const auto [k, p] = w.gradient_terms[t];
         const int jac = w.jac_local_off[w.slot_start[k] + p];
-        for (int i = 0; i < residuals_[k].cost->num_residuals(); ++i) {
+        for (int i = 0; i < residuals_[k].m; ++i) {
           rows.push_back(w.residual_offset[k] + i);
           w.qr_source.push_back(jac + i * b.tangent + j);  // row-major, m x tangent
         }
@@ -705,10 +747,11 @@ double GaussNewtonProblem::Evaluate(bool jacobians) {
       double* const scratch = ambient.data();
       for (size_t k = begin; k < end; ++k) {
         const Residual& res = residuals_[k];
-        const int m = res.cost->num_residuals();
+        const int m = res.m;
+        const BlockList rb = BlocksOf(res);
         size_t used = 0;
-        for (size_t p = 0; p < res.blocks.size(); ++p) {
-          const Block& blk = blocks_[res.blocks[p]];
+        for (size_t p = 0; p < rb.size(); ++p) {
+          const Block& blk = blocks_[rb[p]];
           params[p] = blk.values;
           jac[p] = nullptr;
           if (jacobians && w.jac_local_off[w.slot_start[k] + static_cast<int>(p)] >= 0) {
@@ -717,7 +760,7 @@ double GaussNewtonProblem::Evaluate(bool jacobians) {
           }
         }
         double* r = w.r.data() + w.residual_offset[k];
-        if (!res.cost->Evaluate(params.data(), r, jacobians ? jac.data() : nullptr)) {
+        if (!res.Evaluate(params.data(), r, jacobians ? jac.data() : nullptr)) {
           w.chi2_terms[k] = std::numeric_limits<double>::infinity();
           continue;
         }
@@ -728,9 +771,9 @@ double GaussNewtonProblem::Evaluate(bool jacobians) {
         // Iteratively reweighted: sqrt(rho') scales residual and Jacobian.
         const double sw = std::sqrt(std::max(weight, 0.0));
         if (res.loss) rv *= sw;
-        for (size_t p = 0; p < res.blocks.size(); ++p) {
+        for (size_t p = 0; p < rb.size(); ++p) {
           if (!jac[p]) continue;
-          const Block& blk = blocks_[res.blocks[p]];
+          const Block& blk = blocks_[rb[p]];
           double* local = w.jac_local.data() + w.jac_local_off[w.slot_start[k] + p];
           if (blk.manifold) {
             LocalJacobian(jac[p], w.plus_jac.data() + w.plus_jac_off[blk.variable], local, m,
@@ -772,7 +815,7 @@ double GaussNewtonProblem::LinearizeGradient() {
       for (int t = w.gradient_start[v]; t < w.gradient_start[v + 1]; ++t) {
         const auto [k, p] = w.gradient_terms[t];
         AddGradient(w.jac_local.data() + w.jac_local_off[w.slot_start[k] + p],
-                    w.r.data() + w.residual_offset[k], g.data(), residuals_[k].cost->num_residuals(),
+                    w.r.data() + w.residual_offset[k], g.data(), residuals_[k].m,
                     b.tangent);
       }
     }
@@ -786,7 +829,8 @@ void GaussNewtonProblem::AssembleNormalMatrix() {
   Workspace& w = *ws_;
   if (w.qr) return LoadJacobian();
   const std::vector<int>& variables = w.variables;
-  double* h = w.cholesky->values();
+  const bool in_place = !w.places.index.empty();
+  double* h = in_place ? nullptr : w.cholesky->values();
   pool_->ParallelFor(w.h_blocks.size(), [&](size_t begin, size_t end) {
     // One buffer per worker thread, sized for the largest block.
     thread_local Eigen::MatrixXd buffer;
@@ -804,15 +848,19 @@ void GaussNewtonProblem::AssembleNormalMatrix() {
       }
       const bool diag = hb.row_block == hb.col_block;
       for (int j = 0; j < tc; ++j) {
-        double* col = h + w.col_start[hb.start + j];
+        const int start = w.col_start[hb.start + j];
         const int height = diag ? j + 1 : tr;
-        for (int i = 0; i < height; ++i) col[i] = acc(i, j);
+        if (in_place) {
+          for (int i = 0; i < height; ++i) w.places[start + i] = acc(i, j);
+        } else {
+          for (int i = 0; i < height; ++i) h[start + i] = acc(i, j);
+        }
       }
     }
   });
   double largest = 0;
   for (int i = 0; i < w.n; ++i) {
-    w.diagonal_saved[i] = h[w.diagonal[i]];
+    w.diagonal_saved[i] = in_place ? w.places[w.diagonal[i]] : h[w.diagonal[i]];
     largest = std::max(largest, w.diagonal_saved[i]);
   }
   w.damping_floor = kRelativeDampingFloor * largest;
@@ -838,9 +886,12 @@ bool GaussNewtonProblem::SolveWithLastFactor(double* step_norm) {
 bool GaussNewtonProblem::SolveStep(double lambda, double* step_norm) {
   Workspace& w = *ws_;
   if (w.qr) return SolveStepByQR(lambda, step_norm);
-  double* h = w.cholesky->values();
-  for (int i = 0; i < w.n; ++i)
-    h[w.diagonal[i]] = w.diagonal_saved[i] + lambda * std::max(w.diagonal_saved[i], w.damping_floor);
+  const bool in_place = !w.places.index.empty();
+  double* h = in_place ? nullptr : w.cholesky->values();
+  for (int i = 0; i < w.n; ++i) {
+    const double d = w.diagonal_saved[i] + lambda * std::max(w.diagonal_saved[i], w.damping_floor);
+    (in_place ? w.places[w.diagonal[i]] : h[w.diagonal[i]]) = d;
+  }
   if (!w.cholesky->Factorize()) return false;
   w.cholesky->Solve(w.b.data(), w.dx.data());
   for (double& d : w.dx) d = -d;

@@ -44,6 +44,17 @@ struct GaussNewtonOptions : SolverOptions {
   bool IsValid(std::string* error) const;
 };
 
+// Residuals evaluated from data the caller holds (a pose graph's edges)
+// rather than one ceres::CostFunction object each: at a million edges those
+// objects were 250 MB. Member k is evaluated as CostFunction::Evaluate.
+class ResidualFamily {
+ public:
+  virtual ~ResidualFamily() = default;
+  virtual int NumResiduals(size_t member) const = 0;
+  virtual bool Evaluate(size_t member, const double* const* parameters, double* residuals,
+                        double** jacobians) const = 0;
+};
+
 // A least-squares problem in the shape of ceres::Problem, for our solver.
 class GaussNewtonProblem {
  public:
@@ -58,6 +69,10 @@ class GaussNewtonProblem {
   // added are added without a manifold.
   void AddResidualBlock(ceres::CostFunction* cost, ceres::LossFunction* loss,
                         const std::vector<double*>& blocks);
+  // A member of `family` (not owned; it must outlive the problem), its
+  // blocks of the given sizes.
+  void AddResidualBlock(const ResidualFamily* family, size_t member, ceres::LossFunction* loss,
+                        const std::vector<double*>& blocks, const std::vector<int>& block_sizes);
 
   // Room for this many blocks and residuals, allocated once (optional: the
   // growth's slack is tens of megabytes on a graph of a million poses).
@@ -123,6 +138,17 @@ class GaussNewtonProblem {
   // Prepare's stages, in order: number the variables, lay out the residuals'
   // and Jacobians' storage, plan who feeds each part of b and each block of
   // H, lay out H's scalar pattern, then the symbolic analysis.
+  void AddResidual(Residual r, const std::vector<double*>& blocks, const std::vector<int>& sizes);
+  // A residual's blocks (indices into blocks_).
+  struct BlockList {
+    const int* first;
+    size_t count;
+    size_t size() const { return count; }
+    int operator[](size_t p) const { return first[p]; }
+    const int* begin() const { return first; }
+    const int* end() const { return first + count; }
+  };
+  BlockList BlocksOf(const Residual& r) const;
   void NumberVariables();
   void AllocateJacobians();
   template <typename F>
@@ -162,6 +188,7 @@ class GaussNewtonProblem {
   std::vector<Block> blocks_;
   std::unordered_map<const double*, int> block_index_;
   std::vector<Residual> residuals_;
+  std::vector<int> residual_blocks_;  // each residual's blocks, one after another
   std::unique_ptr<Workspace> ws_;
   std::unique_ptr<ThreadPool> pool_;
   std::vector<const double*> ordering_hint_;

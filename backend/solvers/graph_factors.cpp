@@ -14,34 +14,61 @@ namespace cairn {
 
 namespace {
 
-ceres::CostFunction* MakeLandmarkCost(const PoseGraph& graph, const Edge& edge) {
-  if (graph.dimension() == 2) {
-    const Eigen::Vector2d z(edge.z[0], edge.z[1]);
-    const Eigen::Matrix2d info = edge.information.topLeftCorner<2, 2>();
-    return edge.IsPrior() ? factors::PointPriorFactor<2>::Create(z, info)
-                          : factors::SE2PointFactor::Create(z, info);
+template <typename T>
+struct Factor {
+  using type = T;
+};
+
+// Calls make(Factor<F>{}, args...) with the factor F of the edge and the
+// arguments its Create and Evaluate take (the measurement and information),
+// so that building a cost function and evaluating without one cannot
+// disagree on what an edge means.
+template <typename Make>
+auto WithFactor(const PoseGraph& graph, const Edge& edge, Make&& make) {
+  if (edge.IsLandmark()) {
+    if (graph.dimension() == 2) {
+      const Eigen::Vector2d z(edge.z[0], edge.z[1]);
+      const Eigen::Matrix2d info = edge.information.topLeftCorner<2, 2>();
+      return edge.IsPrior() ? make(Factor<factors::PointPriorFactor<2>>{}, z, info)
+                            : make(Factor<factors::SE2PointFactor>{}, z, info);
+    }
+    const Eigen::Vector3d z(edge.z[0], edge.z[1], edge.z[2]);
+    const Eigen::Matrix3d info = edge.information.topLeftCorner<3, 3>();
+    if (edge.IsPrior()) return make(Factor<factors::PointPriorFactor<3>>{}, z, info);
+    const SE3& o = graph.offset(edge.offset);
+    return make(Factor<factors::SE3PointFactor>{}, z, o.rotation(), o.translation(), info);
   }
-  const Eigen::Vector3d z(edge.z[0], edge.z[1], edge.z[2]);
-  const Eigen::Matrix3d info = edge.information.topLeftCorner<3, 3>();
-  if (edge.IsPrior()) return factors::PointPriorFactor<3>::Create(z, info);
-  const SE3& o = graph.offset(edge.offset);
-  return factors::SE3PointFactor::Create(z, o.rotation(), o.translation(), info);
+  if (graph.dimension() == 2) {
+    const Eigen::Vector3d z(edge.z[0], edge.z[1], edge.z[2]);
+    const Eigen::Matrix3d info = edge.information.topLeftCorner<3, 3>();
+    return edge.IsPrior() ? make(Factor<factors::SE2PriorFactor>{}, z, info)
+                          : make(Factor<factors::SE2BetweenFactor>{}, z, info);
+  }
+  const SE3 z = ToSE3(edge.z);
+  const Matrix6d info = edge.information;
+  return edge.IsPrior() ? make(Factor<factors::SE3PriorFactor>{}, z.rotation(), z.translation(), info)
+                        : make(Factor<factors::SE3BetweenFactor>{}, z.rotation(), z.translation(),
+                               info);
 }
 
 }  // namespace
 
 ceres::CostFunction* MakeCostFunction(const PoseGraph& graph, const Edge& edge) {
-  if (edge.IsLandmark()) return MakeLandmarkCost(graph, edge);
-  if (graph.dimension() == 2) {
-    const Eigen::Vector3d z(edge.z[0], edge.z[1], edge.z[2]);
-    const Eigen::Matrix3d info = edge.information.topLeftCorner<3, 3>();
-    return edge.IsPrior() ? factors::SE2PriorFactor::Create(z, info)
-                          : factors::SE2BetweenFactor::Create(z, info);
-  }
-  const SE3 z = ToSE3(edge.z);
-  return edge.IsPrior()
-             ? factors::SE3PriorFactor::Create(z.rotation(), z.translation(), edge.information)
-             : factors::SE3BetweenFactor::Create(z.rotation(), z.translation(), edge.information);
+  return WithFactor(graph, edge, [](auto factor, const auto&... args) -> ceres::CostFunction* {
+    return decltype(factor)::type::Create(args...);
+  });
+}
+
+bool EvaluateEdge(const PoseGraph& graph, const Edge& edge, const double* const* parameters,
+                  double* residuals, double** jacobians) {
+  return WithFactor(graph, edge, [&](auto factor, const auto&... args) {
+    return decltype(factor)::type::Evaluate(args..., parameters, residuals, jacobians);
+  });
+}
+
+int EdgeResiduals(const PoseGraph& graph, const Edge& edge) {
+  if (edge.IsLandmark()) return graph.dimension();
+  return graph.TangentSize();
 }
 
 std::unique_ptr<ceres::LossFunction> MakeLoss(const RobustLoss& loss) {

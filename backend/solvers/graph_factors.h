@@ -14,12 +14,36 @@
 
 #include "cairn/graph/initialization.h"
 #include "cairn/graph/pose_graph.h"
+#include "cairn/solvers/gauss_newton.h"
 #include "cairn/solvers/solve_result.h"
 
 namespace cairn {
 
 // A new autodiff cost function for the edge (the caller owns it).
 ceres::CostFunction* MakeCostFunction(const PoseGraph& graph, const Edge& edge);
+// What that cost function's Evaluate gives, without making it; and its
+// number of residuals.
+bool EvaluateEdge(const PoseGraph& graph, const Edge& edge, const double* const* parameters,
+                  double* residuals, double** jacobians);
+int EdgeResiduals(const PoseGraph& graph, const Edge& edge);
+
+// The graph's edges as Gauss-Newton residuals, member k being edge k,
+// evaluated from the graph at each linearisation (the graph must outlive
+// the problem and keep its edges).
+class GraphResiduals final : public ResidualFamily {
+ public:
+  explicit GraphResiduals(const PoseGraph& graph) : graph_(graph) {}
+  int NumResiduals(size_t member) const override {
+    return EdgeResiduals(graph_, graph_.edges()[member]);
+  }
+  bool Evaluate(size_t member, const double* const* parameters, double* residuals,
+                double** jacobians) const override {
+    return EvaluateEdge(graph_, graph_.edges()[member], parameters, residuals, jacobians);
+  }
+
+ private:
+  const PoseGraph& graph_;
+};
 
 // An edge's whitened residual and its Jacobians in the tangent spaces of
 // its vertices (one d x d block per vertex: from, then to), at the

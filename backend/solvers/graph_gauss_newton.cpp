@@ -36,6 +36,8 @@ SolveResult SolveGaussNewton(PoseGraph& graph, const GaussNewtonOptions& options
   }
   const HeldRotationManifold held_rotation(manifold.get(), graph.dimension() == 2 ? 2 : 3);
   const auto loop_closure_loss = MakeLoss(options.loop_closure_loss);
+  // The edges are evaluated from the graph: no cost object per edge.
+  const GraphResiduals edges(graph);
   GaussNewtonProblem problem;
   problem.Reserve(graph.vertices().size(), graph.edges().size());
   const std::vector<bool>& held = gauge.held;
@@ -56,13 +58,20 @@ SolveResult SolveGaussNewton(PoseGraph& graph, const GaussNewtonOptions& options
   }
   for (size_t i = 0; i < vertices.size(); ++i)
     if (held[i]) problem.SetParameterBlockConstant(vertices[i].x.data());
-  for (const Edge& e : graph.edges()) {
-    std::vector<double*> blocks{graph.vertex(e.from).x.data()};
-    if (!e.IsPrior()) blocks.push_back(graph.vertex(e.to).x.data());
+  std::vector<double*> blocks;
+  std::vector<int> sizes;
+  for (size_t k = 0; k < graph.edges().size(); ++k) {
+    const Edge& e = graph.edges()[k];
+    blocks.assign(1, graph.vertex(e.from).x.data());
+    sizes.assign(1, graph.BlockSize(graph.vertex(e.from)));
+    if (!e.IsPrior()) {
+      blocks.push_back(graph.vertex(e.to).x.data());
+      sizes.push_back(graph.BlockSize(graph.vertex(e.to)));
+    }
     ceres::LossFunction* loss = e.kind == EdgeKind::kLoopClosure && loop_closure_loss
                                     ? new BorrowedLoss(loop_closure_loss.get())
                                     : nullptr;
-    problem.AddResidualBlock(MakeCostFunction(graph, e), loss, blocks);
+    problem.AddResidualBlock(&edges, k, loss, blocks, sizes);
   }
   const bool robust = options.loop_closure_loss.kind != RobustLoss::kNone;
   const double initial_chi2 = robust ? Chi2(graph) : 0;

@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <memory>
 #include <string>
 #include <cmath>
 #include <cstdlib>
@@ -222,6 +223,78 @@ TEST_P(TwoHalves, RefuseAMatrixThatIsNotPositiveDefinite) {
   const Eigen::MatrixXd a = m.Dense(8);
   const Eigen::VectorXd b = Eigen::VectorXd::Ones(a.rows());
   EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - a.ldlt().solve(b)).norm(), 1e-9);
+}
+
+// Writing H where the factorisation reads it (TakeValuesInPlace) gives
+// the very same solution as writing the caller's layout, for each way of
+// factorising: the two halves (each method, the separator's block written
+// once for both), one supernodal or simplicial factorisation, and again
+// after new values and after the pattern grew (Extend: places taken anew).
+ValuePlaces TakePlaces(SparseCholesky& chol, size_t entries) {
+  ValuePlaces places;
+  EXPECT_TRUE(chol.TakeValuesInPlace(&places));
+  EXPECT_EQ(places.index.size(), entries);
+  ValuePlaces again;
+  EXPECT_FALSE(chol.TakeValuesInPlace(&again));  // once per analysis
+  return places;
+}
+
+Eigen::VectorXd SolveInPlace(SparseCholesky& chol, const ValuePlaces& places,
+                             const Eigen::MatrixXd& a, const std::vector<int>& col_ptr,
+                             const std::vector<int>& rows, const Eigen::VectorXd& b) {
+  for (int j = 0; j + 1 < static_cast<int>(col_ptr.size()); ++j)
+    for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) places[k] = a(rows[k], j);
+  EXPECT_TRUE(chol.Factorize());
+  Eigen::VectorXd x(b.size());
+  chol.Solve(b.data(), x.data());
+  return x;
+}
+
+TEST_P(TwoHalves, ValuesWrittenInPlaceSolveAsTheirCopy) {
+  const BlockMatrix m = GetParam() ? DenseGrid(24) : Grid(24);
+  std::vector<int> col_ptr, rows;
+  m.Pattern(&col_ptr, &rows);
+  const std::vector<int> sizes(m.blocks, 3);
+  const Eigen::MatrixXd a = m.Dense(9), a2 = m.Dense(10);
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(a.rows(), -1, 2);
+  std::vector<std::pair<std::string, std::unique_ptr<SparseCholesky>>> copy, in_place;
+  for (auto* set : {&copy, &in_place}) {
+    set->emplace_back("two halves", CreateDomainCholesky(0));
+    set->emplace_back("supernodal", SparseCholesky::Create(Factorization::kSupernodal));
+    set->emplace_back("simplicial", SparseCholesky::Create(Factorization::kSimplicial));
+    set->emplace_back("CHOLMOD's choice",
+                      SparseCholesky::Create(Factorization::kSupernodalOrSimplicial));
+  }
+  for (size_t c = 0; c < copy.size(); ++c) {
+    SCOPED_TRACE(copy[c].first);
+    SparseCholesky& by_copy = *copy[c].second;
+    SparseCholesky& by_place = *in_place[c].second;
+    by_copy.Analyze(3 * m.blocks, col_ptr, rows, sizes);
+    by_place.Analyze(3 * m.blocks, col_ptr, rows, sizes);
+    if (c == 0) ASSERT_NE(by_place.Method().find("two halves"), std::string::npos);
+    const Eigen::VectorXd x = SolveWith(by_copy, a, col_ptr, rows, b);
+    EXPECT_LT((x - a.ldlt().solve(b)).norm(), 1e-10 * x.norm());
+    const ValuePlaces places = TakePlaces(by_place, rows.size());
+    EXPECT_EQ(SolveInPlace(by_place, places, a, col_ptr, rows, b), x);
+    EXPECT_EQ(SolveInPlace(by_place, places, a2, col_ptr, rows, b),
+              SolveWith(by_copy, a2, col_ptr, rows, b));
+  }
+  // A single factorisation extended: the old places are gone, new ones taken.
+  BlockMatrix grown = m;
+  grown.blocks += 2;
+  grown.couplings.push_back({m.blocks - 1, m.blocks});
+  grown.couplings.push_back({m.blocks, m.blocks + 1});
+  std::vector<int> grown_ptr, grown_rows;
+  grown.Pattern(&grown_ptr, &grown_rows);
+  const Eigen::MatrixXd g = grown.Dense(11);
+  const Eigen::VectorXd gb = Eigen::VectorXd::Ones(g.rows());
+  SparseCholesky& by_place = *in_place[1].second;
+  ASSERT_TRUE(by_place.Extend(3 * grown.blocks, grown_ptr, grown_rows,
+                              std::vector<int>(grown.blocks, 3)));
+  const ValuePlaces places = TakePlaces(by_place, grown_rows.size());
+  EXPECT_LT(
+      (SolveInPlace(by_place, places, g, grown_ptr, grown_rows, gb) - g.ldlt().solve(gb)).norm(),
+      1e-9);
 }
 
 INSTANTIATE_TEST_SUITE_P(SparseCholesky, TwoHalves, ::testing::Bool(),

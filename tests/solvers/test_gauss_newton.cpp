@@ -230,7 +230,12 @@ TEST(GaussNewton, EveryLinearSolverAgrees) {
   }
   for (size_t k = 1; k < results.size(); ++k) {
     EXPECT_NEAR(chi2[k] / chi2[0], 1.0, 1e-9);
-    ExpectSamePoses(results[0], results[k], 1e-7, 1e-8);
+    // The optimum is flat to rounding along its weakest directions: the
+    // factorisations' different orders of summation leave the poses up to
+    // 2.2e-7 m apart at a chi2 equal to 15 digits (measured with CHOLMOD's
+    // simplicial and Eigen's LDLT against the supernodal one, on one
+    // machine's BLAS; another gave under 1e-7).
+    ExpectSamePoses(results[0], results[k], 1e-6, 1e-7);
   }
 }
 

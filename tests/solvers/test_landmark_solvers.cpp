@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
+#include <vector>
 
 #include "cairn/graph/chi2.h"
 #include "cairn/graph/pose_graph.h"
@@ -186,6 +188,53 @@ TEST(LandmarkSolvers, LandmarkCovarianceByHand) {
       ASSERT_EQ(cov[1].rows(), dim);
       EXPECT_LT((cov[1] - expected).norm(), 1e-9 * expected.norm()) << "dim " << dim;
     }
+  }
+}
+
+// The Gauss-Newton path evaluates edges from the graph (EvaluateEdge)
+// instead of keeping a cost function per edge: for every kind of edge, in
+// 2D and 3D, it must give the cost function's residual and Jacobians to
+// the last bit.
+TEST(GraphResiduals, EvaluateAsTheCostFunctionToTheLastBit) {
+  for (int dimension : {2, 3}) {
+    Simulation sim = WithLandmarks(dimension, 3);
+    PoseGraph& g = sim.noisy;
+    for (EdgeKind kind : {EdgeKind::kPrior, EdgeKind::kLandmarkPrior}) {
+      Edge prior;
+      prior.kind = kind;
+      for (const Vertex& v : g.vertices())
+        if (v.landmark == (kind == EdgeKind::kLandmarkPrior)) prior.from = v.id;
+      prior.z = g.vertex(prior.from).x;
+      prior.z[0] += 0.3;
+      g.AddEdge(prior);
+    }
+    int kinds[5] = {0, 0, 0, 0, 0};
+    for (const Edge& e : g.edges()) {
+      ++kinds[static_cast<int>(e.kind)];
+      const std::unique_ptr<ceres::CostFunction> cost(MakeCostFunction(g, e));
+      const int m = cost->num_residuals();
+      ASSERT_EQ(EdgeResiduals(g, e), m);
+      std::vector<const double*> params = {g.vertex(e.from).x.data()};
+      if (!e.IsPrior()) params.push_back(g.vertex(e.to).x.data());
+      std::vector<std::vector<double>> jc, je;
+      std::vector<double*> pc, pe;
+      for (size_t p = 0; p < params.size(); ++p) {
+        jc.emplace_back(m * cost->parameter_block_sizes()[p], 0.0);
+        je.emplace_back(jc.back().size(), 1.0);
+      }
+      for (size_t p = 0; p < params.size(); ++p) pc.push_back(jc[p].data()), pe.push_back(je[p].data());
+      // Without Jacobians both evaluate in doubles, with them in Jets: the
+      // two may differ in the last bits, so each is compared with its like.
+      std::vector<double> rc(m), rc_only(m), re(m, 1.0), r_only(m, 2.0);
+      ASSERT_TRUE(cost->Evaluate(params.data(), rc.data(), pc.data()));
+      ASSERT_TRUE(cost->Evaluate(params.data(), rc_only.data(), nullptr));
+      ASSERT_TRUE(EvaluateEdge(g, e, params.data(), re.data(), pe.data()));
+      ASSERT_TRUE(EvaluateEdge(g, e, params.data(), r_only.data(), nullptr));
+      EXPECT_EQ(re, rc);
+      EXPECT_EQ(r_only, rc_only);
+      EXPECT_EQ(je, jc);
+    }
+    for (int k = 0; k < 5; ++k) EXPECT_GT(kinds[k], 0) << "no edge of kind " << k;
   }
 }
 

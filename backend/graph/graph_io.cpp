@@ -2,6 +2,7 @@
 #include "cairn/graph/output_files.h"
 
 #include <deque>
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include <cctype>
@@ -17,6 +18,7 @@
 #include <iostream>
 #include <limits>
 #include <map>
+#include <new>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -199,6 +201,27 @@ struct PendingEdge {
   size_t line;
 };
 
+// Memory mapped from the system for each allocation and unmapped on its
+// release, whatever its size (glibc keeps what is freed below its mmap
+// threshold for later use, resident).
+template <typename T>
+struct PageAllocator {
+  using value_type = T;
+  PageAllocator() = default;
+  template <typename U>
+  PageAllocator(const PageAllocator<U>&) {}  // NOLINT: as std::allocator converts
+  T* allocate(size_t n) {
+    void* p = mmap(nullptr, n * sizeof(T), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (p == MAP_FAILED) throw std::bad_alloc();
+    return static_cast<T*>(p);
+  }
+  void deallocate(T* p, size_t n) { munmap(p, n * sizeof(T)); }
+  template <typename U>
+  bool operator==(const PageAllocator<U>&) const { return true; }
+  template <typename U>
+  bool operator!=(const PageAllocator<U>&) const { return false; }
+};
+
 bool LooksBinary(const std::string& line) {
   for (unsigned char c : line)
     if (c == 0 || (c < 32 && c != '\t' && c != '\r' && c != '\v' && c != '\f')) return true;
@@ -268,7 +291,7 @@ class Reader {
           throw ParseError(name_, p.line, e.what());
         }
       }
-      std::vector<PendingEdge>().swap(chunk);
+      std::vector<PendingEdge, PageAllocator<PendingEdge>>().swap(chunk);
     }
     for (const auto& [id, line] : fixed_) {
       if (!graph.HasVertex(id))
@@ -591,11 +614,13 @@ class Reader {
   // Built as vertices are read (no second copy of them); edges wait until
   // every vertex is known.
   std::optional<PoseGraph> graph_;
-  // Pending edges in chunks larger than glibc's largest mmap threshold
-  // (32 MB), so that each one freed goes back to the system; a deque's
-  // small blocks stayed in the heap and the edges were held twice.
-  static constexpr size_t kEdgeChunk = size_t{1} << 17;
-  std::vector<std::vector<PendingEdge>> edge_chunks_;
+  // Pending edges in chunks of about a megabyte, each mapped on its own so
+  // that, freed once moved into the graph, it goes back to the system: a
+  // deque's small blocks stayed in the heap (the edges were held twice),
+  // and one chunk in flight is all that is held twice now (it was 35 MB
+  // when the chunks were made large to get past glibc's mmap threshold).
+  static constexpr size_t kEdgeChunk = size_t{1} << 12;
+  std::vector<std::vector<PendingEdge, PageAllocator<PendingEdge>>> edge_chunks_;
   size_t edge_count_ = 0;
   std::vector<std::pair<int64_t, size_t>> fixed_;
   std::map<int64_t, PoseParams> offsets_;  // PARAMS_SE3OFFSET id -> offset

@@ -23,13 +23,73 @@ const char* ToString(EdgeKind kind) {
   return "?";
 }
 
+size_t VertexIndex::Find(int64_t id) const {
+  if (!dense_) {
+    const auto it = sparse_.find(id);
+    return it == sparse_.end() ? kAbsent : it->second;
+  }
+  // Unsigned: the distance of two int64 ids may not fit in an int64.
+  const uint64_t k = static_cast<uint64_t>(id) - static_cast<uint64_t>(base_);
+  if (id < base_ || k >= slots_.size() || slots_[k] == 0) return kAbsent;
+  return slots_[k] - 1;
+}
+
+size_t VertexIndex::At(int64_t id) const {
+  const size_t position = Find(id);
+  if (position == kAbsent) throw std::out_of_range("no vertex " + std::to_string(id));
+  return position;
+}
+
+void VertexIndex::Insert(int64_t id, size_t position) {
+  if (dense_ && InsertDense(id, position)) return;
+  if (dense_) ToSparse();
+  sparse_.emplace(id, position);
+}
+
+// False (nothing changed) when the ids would no longer be dense: their range
+// more than twice their number (and some slack), or a position beyond 32 bits.
+bool VertexIndex::InsertDense(int64_t id, size_t position) {
+  if (position >= std::numeric_limits<uint32_t>::max()) return false;
+  const int64_t low = count_ ? std::min(low_, id) : id, high = count_ ? std::max(high_, id) : id;
+  const uint64_t range = static_cast<uint64_t>(high) - static_cast<uint64_t>(low);
+  if (range > 2 * static_cast<uint64_t>(count_ + 1) + 1024) return false;
+  if (count_ == 0) base_ = id;
+  if (id < base_) {
+    // Room in front for as many again, so that ids arriving in descending
+    // order cost amortised constant time (the range bound holds for the ids
+    // held, the slots may be up to twice that).
+    const uint64_t grow = std::max<uint64_t>(static_cast<uint64_t>(base_) - static_cast<uint64_t>(id),
+                                             slots_.size());
+    const uint64_t lowest = static_cast<uint64_t>(std::numeric_limits<int64_t>::min());
+    const uint64_t room = std::min<uint64_t>(grow, static_cast<uint64_t>(base_) - lowest);
+    slots_.insert(slots_.begin(), room, 0);
+    base_ = static_cast<int64_t>(static_cast<uint64_t>(base_) - room);
+  }
+  const uint64_t k = static_cast<uint64_t>(id) - static_cast<uint64_t>(base_);
+  if (k >= slots_.size()) slots_.resize(k + 1, 0);
+  slots_[k] = static_cast<uint32_t>(position + 1);
+  low_ = low;
+  high_ = high;
+  ++count_;
+  return true;
+}
+
+void VertexIndex::ToSparse() {
+  sparse_.reserve(count_ + 1);
+  for (size_t k = 0; k < slots_.size(); ++k)
+    if (slots_[k] != 0)
+      sparse_.emplace(static_cast<int64_t>(static_cast<uint64_t>(base_) + k), slots_[k] - 1);
+  std::vector<uint32_t>().swap(slots_);
+  dense_ = false;
+}
+
 PoseGraph::PoseGraph(int dimension) : dimension_(dimension) {
   if (dimension != 2 && dimension != 3) throw std::invalid_argument("dimension must be 2 or 3");
 }
 
 Vertex& PoseGraph::AddVertex(int64_t id, const PoseParams& x, bool fixed) {
   if (HasVertex(id)) throw std::invalid_argument("duplicate vertex id " + std::to_string(id));
-  index_.emplace(id, vertices_.size());
+  index_.Insert(id, vertices_.size());
   vertices_.push_back(Vertex{id, x, fixed});
   return vertices_.back();
 }

@@ -130,6 +130,31 @@ struct InformationRepairs {
   size_t largest_line = 0;  // the file line of that matrix (0: none)
 };
 
+// Vertex ids to positions in the graph's vertex list. While the ids are
+// dense (g2o files number them 0..N-1, or nearly) a plain array of 4 bytes
+// an id, at most twice the id range; once they are not, a hash map (40
+// bytes a vertex: at a million poses the array saves 36 MB).
+class VertexIndex {
+ public:
+  bool Contains(int64_t id) const { return Find(id) != kAbsent; }
+  // Throws std::out_of_range if absent.
+  size_t At(int64_t id) const;
+  // `id` must be new.
+  void Insert(int64_t id, size_t position);
+
+ private:
+  static constexpr size_t kAbsent = ~size_t{0};
+  size_t Find(int64_t id) const;
+  bool InsertDense(int64_t id, size_t position);
+  void ToSparse();
+  bool dense_ = true;
+  int64_t base_ = 0;             // the id of slots_[0]
+  int64_t low_ = 0, high_ = 0;   // the smallest and largest id held
+  std::vector<uint32_t> slots_;  // position + 1 of id base_ + k; 0: none
+  size_t count_ = 0;
+  std::unordered_map<int64_t, size_t> sparse_;
+};
+
 class PoseGraph {
  public:
   explicit PoseGraph(int dimension = 2);
@@ -169,11 +194,11 @@ class PoseGraph {
   const SE3& offset(int32_t id) const { return offsets_.at(id); }
   const std::map<int32_t, SE3>& offsets() const { return offsets_; }
 
-  bool HasVertex(int64_t id) const { return index_.count(id) != 0; }
+  bool HasVertex(int64_t id) const { return index_.Contains(id); }
   // Position of a vertex in vertices(); throws std::out_of_range if absent.
-  size_t VertexIndex(int64_t id) const { return index_.at(id); }
-  Vertex& vertex(int64_t id) { return vertices_[index_.at(id)]; }
-  const Vertex& vertex(int64_t id) const { return vertices_[index_.at(id)]; }
+  size_t VertexIndex(int64_t id) const { return index_.At(id); }
+  Vertex& vertex(int64_t id) { return vertices_[index_.At(id)]; }
+  const Vertex& vertex(int64_t id) const { return vertices_[index_.At(id)]; }
 
   std::deque<Vertex>& vertices() { return vertices_; }
   const std::deque<Vertex>& vertices() const { return vertices_; }
@@ -200,7 +225,7 @@ class PoseGraph {
  private:
   int dimension_;
   std::deque<Vertex> vertices_;
-  std::unordered_map<int64_t, size_t> index_;
+  cairn::VertexIndex index_;
   std::vector<Edge> edges_;
   std::vector<VerbatimLine> verbatim_lines_;
   size_t landmarks_ = 0;

@@ -2,6 +2,10 @@
 // chaining along a spanning tree.
 #include <gtest/gtest.h>
 
+#include <limits>
+#include <set>
+#include <vector>
+
 #include "cairn/graph/chi2.h"
 #include "cairn/graph/initialization.h"
 #include "cairn/graph/pose_graph.h"
@@ -34,6 +38,51 @@ TEST(PoseGraph, RefusesBadInput) {
   EXPECT_THROW(g.AddEdge(bad), std::invalid_argument);
   EXPECT_NO_THROW(g.AddEdge(Between2D(0, 1, SE2(1, 0, 0))));
   EXPECT_EQ(g.edges().size(), 1u);
+}
+
+// Every id pattern finds each vertex where it was put, and nothing else:
+// dense ascending, descending, shuffled, with gaps, negative, and ids at
+// int64's ends (which leave the array for the hash map part-way).
+TEST(VertexIndex, FindsEveryIdInAnyOrder) {
+  const int64_t lowest = std::numeric_limits<int64_t>::min();
+  const int64_t highest = std::numeric_limits<int64_t>::max();
+  std::vector<std::vector<int64_t>> patterns;
+  std::vector<int64_t> ids;
+  for (int64_t i = 0; i < 5000; ++i) ids.push_back(i);
+  patterns.push_back(ids);
+  patterns.emplace_back(ids.rbegin(), ids.rend());
+  std::vector<int64_t> shuffled = ids;
+  for (size_t i = shuffled.size() - 1; i > 0; --i) std::swap(shuffled[i], shuffled[(i * 7919) % (i + 1)]);
+  patterns.push_back(shuffled);
+  std::vector<int64_t> gaps, negative, ends;
+  for (int64_t i = 0; i < 3000; ++i) gaps.push_back(i * 3 + (i % 2));
+  for (int64_t i = 0; i < 3000; ++i) negative.push_back(1000 - i);
+  for (int64_t i = 0; i < 2000; ++i) ends.push_back(i);
+  ends.push_back(highest);
+  ends.push_back(lowest);
+  for (int64_t i = 0; i < 100; ++i) ends.push_back(highest - 1 - i), ends.push_back(lowest + 1 + i);
+  patterns.push_back(gaps);
+  patterns.push_back(negative);
+  patterns.push_back(ends);
+  patterns.push_back({lowest, lowest + 1, highest});
+  for (size_t p = 0; p < patterns.size(); ++p) {
+    SCOPED_TRACE(p);
+    VertexIndex index;
+    std::set<int64_t> held;
+    for (size_t k = 0; k < patterns[p].size(); ++k) {
+      index.Insert(patterns[p][k], k);
+      held.insert(patterns[p][k]);
+    }
+    for (size_t k = 0; k < patterns[p].size(); ++k) {
+      ASSERT_TRUE(index.Contains(patterns[p][k]));
+      ASSERT_EQ(index.At(patterns[p][k]), k);
+    }
+    for (int64_t probe : {int64_t{-1}, int64_t{2}, int64_t{5000}, int64_t{1001}, int64_t{-2000},
+                          lowest, lowest + 500, highest, highest - 500, int64_t{9000}}) {
+      EXPECT_EQ(index.Contains(probe), held.count(probe) != 0) << probe;
+      if (!held.count(probe)) EXPECT_THROW(index.At(probe), std::out_of_range) << probe;
+    }
+  }
 }
 
 TEST(PoseGraph, EdgeKindsFromIds) {

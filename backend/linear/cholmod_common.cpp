@@ -39,7 +39,7 @@ void CholmodCommon::SetSupernodes(bool coarse) {
 // speed (docs/benchmarks.md, "Memory"). The fine ones store 1.18 times the
 // exact nonzeros of the 1 M-pose graph's halves against CHOLMOD's 1.42
 // (138.7 M entries against 166.9 M for 117.8 M), at the same speed; with
-// no relaxation at all (1.08) the factorisation was 13% slower.
+// no relaxation at all (1.10) the factorisation was 13% slower.
 cholmod_factor* CholmodCommon::Analyze(cholmod_sparse* a, double fine_above,
                                        double known_nonzeros) {
   cholmod_factor* factor = nullptr;

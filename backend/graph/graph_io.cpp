@@ -273,7 +273,7 @@ class Reader {
     // Edges move from the pending chunks into the graph, each chunk released
     // once moved: a large file's edges are held about once, not twice, at
     // the peak.
-    graph.mutable_edges().reserve(edge_count_);
+    graph.ReserveEdges(edge_count_);
     for (auto& chunk : edge_chunks_) {
       for (const PendingEdge& p : chunk) {
         for (int64_t id : {p.edge.from, p.edge.to}) {

@@ -83,7 +83,77 @@ void VertexIndex::ToSparse() {
   dense_ = false;
 }
 
-PoseGraph::PoseGraph(int dimension) : dimension_(dimension) {
+EdgeList::EdgeList(int dimension) : dimension_(dimension), stride_(dimension == 3 ? 28 : 9) {}
+
+int EdgeList::MeasurementSize(EdgeKind kind) const {
+  const bool point = kind == EdgeKind::kLandmark || kind == EdgeKind::kLandmarkPrior;
+  return point ? dimension_ : (dimension_ == 3 ? 7 : 3);
+}
+
+int EdgeList::InformationSize(EdgeKind kind) const {
+  const bool point = kind == EdgeKind::kLandmark || kind == EdgeKind::kLandmarkPrior;
+  return point ? dimension_ : (dimension_ == 3 ? 6 : 3);
+}
+
+void EdgeList::Encode(const Edge& e, double* v) const {
+  const int m = MeasurementSize(e.kind), n = InformationSize(e.kind);
+  for (int i = 0; i < m; ++i) *v++ = e.z[i];
+  for (int r = 0; r < n; ++r)
+    for (int c = r; c < n; ++c) *v++ = e.information(r, c);
+}
+
+Edge EdgeList::operator[](size_t k) const {
+  const Head& h = heads_[k];
+  Edge e;
+  e.kind = h.kind;
+  e.offset = h.offset;
+  e.from = h.from;
+  e.to = h.to;
+  const double* v = values_.data() + k * stride_;
+  const int m = MeasurementSize(h.kind), n = InformationSize(h.kind);
+  for (int i = 0; i < m; ++i) e.z[i] = *v++;
+  e.information.v_.fill(0.0);
+  for (int r = 0; r < n; ++r)
+    for (int c = r; c < n; ++c) e.information.v_[SymmetricMatrix6::Index(r, c)] = *v++;
+  return e;
+}
+
+Edge EdgeList::at(size_t k) const {
+  if (k >= size()) throw std::out_of_range("no edge " + std::to_string(k));
+  return (*this)[k];
+}
+
+void EdgeList::Reserve(size_t n) {
+  heads_.reserve(n);
+  values_.reserve(n * stride_);
+}
+
+void EdgeList::Push(const Edge& e) {
+  heads_.push_back(Head{e.from, e.to, e.offset, e.kind});
+  values_.resize(values_.size() + stride_, 0.0);
+  Encode(e, values_.data() + values_.size() - stride_);
+}
+
+void EdgeList::Set(size_t k, const Edge& e) {
+  heads_.at(k) = Head{e.from, e.to, e.offset, e.kind};
+  double* v = values_.data() + k * stride_;
+  std::fill(v, v + stride_, 0.0);
+  Encode(e, v);
+}
+
+void EdgeList::Keep(const std::vector<bool>& keep) {
+  size_t kept = 0;
+  for (size_t k = 0; k < heads_.size(); ++k) {
+    if (!keep.at(k)) continue;
+    heads_[kept] = heads_[k];
+    std::copy_n(values_.begin() + k * stride_, stride_, values_.begin() + kept * stride_);
+    ++kept;
+  }
+  heads_.resize(kept);
+  values_.resize(kept * stride_);
+}
+
+PoseGraph::PoseGraph(int dimension) : dimension_(dimension), edges_(dimension) {
   if (dimension != 2 && dimension != 3) throw std::invalid_argument("dimension must be 2 or 3");
 }
 
@@ -155,24 +225,26 @@ void PoseGraph::AddEdge(const Edge& edge) {
     case InformationClass::kUnusable:
       throw std::invalid_argument("information matrix is zero, not finite or not symmetric");
   }
-  edges_.push_back(edge);
-  // Keep the unused parts canonical so that equal edges compare equal.
-  Edge& e = edges_.back();
-  const int n = ResidualSize(e);
-  if (n < 6) {
-    e.information.SetTopLeft(e.information.topLeftCorner(n, n));
-  }
-  if (e.IsLandmark()) {
-    std::fill(e.z.begin() + dimension_, e.z.end(), 0.0);
-  } else if (dimension_ == 2) {
-    std::fill(e.z.begin() + 3, e.z.end(), 0.0);
-  }
+  // The unused parts are not stored: they read back as zero.
+  Edge e = edge;
   if (e.kind != EdgeKind::kLandmark || dimension_ == 2) e.offset = 0;
+  edges_.Push(e);
+}
+
+void PoseGraph::SetEdge(size_t k, const Edge& edge) {
+  Edge e = edge;
+  if (e.kind != EdgeKind::kLandmark || dimension_ == 2) e.offset = 0;
+  edges_.Set(k, e);
+}
+
+void PoseGraph::KeepEdges(const std::vector<bool>& keep) {
+  if (keep.size() != edges_.size()) throw std::invalid_argument("KeepEdges: one flag per edge");
+  edges_.Keep(keep);
 }
 
 size_t PoseGraph::CountEdges(EdgeKind kind) const {
   size_t n = 0;
-  for (const Edge& e : edges_) n += e.kind == kind;
+  for (size_t k = 0; k < edges_.size(); ++k) n += edges_.kind(k) == kind;
   return n;
 }
 

@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <iterator>
 #include <map>
 #include <string>
 #include <type_traits>
@@ -45,7 +46,9 @@ struct Vertex {
 // PoseGraph::AddEdge can still refuse an asymmetric one.
 class SymmetricMatrix6 {
  public:
-  SymmetricMatrix6() : SymmetricMatrix6(Matrix6d::Identity()) {}
+  SymmetricMatrix6() {
+    for (int i = 0; i < 6; ++i) v_[Index(i, i)] = 1.0;  // the identity
+  }
   SymmetricMatrix6(const Matrix6d& m) { *this = m; }  // NOLINT: as the Matrix6d it replaced
   SymmetricMatrix6& operator=(const Matrix6d& m);
 
@@ -82,6 +85,7 @@ class SymmetricMatrix6 {
   bool operator==(const SymmetricMatrix6& o) const { return v_ == o.v_; }
 
  private:
+  friend class EdgeList;
   static int Index(int r, int c) {
     if (r > c) std::swap(r, c);
     return r * 6 - r * (r - 1) / 2 + (c - r);
@@ -109,6 +113,82 @@ struct Edge {
   }
   // Odometry or a loop closure: a relative pose between two poses.
   bool JoinsPoses() const { return kind == EdgeKind::kOdometry || kind == EdgeKind::kLoopClosure; }
+};
+
+// The graph's edges, each stored in what its dimension uses (a 2D edge's
+// 3 measurement doubles and the 3x3 information's triangle: 96 bytes, not
+// an Edge's 256) and given out as an Edge, by value: `for (const Edge& e :
+// graph.edges())` and `graph.edges()[k]` read as from a vector.
+class EdgeList {
+ public:
+  class const_iterator {
+   public:
+    using iterator_category = std::random_access_iterator_tag;
+    using value_type = Edge;
+    using difference_type = std::ptrdiff_t;
+    using pointer = void;
+    using reference = Edge;
+    const_iterator() = default;
+    Edge operator*() const { return (*list_)[k_]; }
+    Edge operator[](difference_type n) const { return (*list_)[k_ + n]; }
+    const_iterator& operator++() { return ++k_, *this; }
+    const_iterator operator++(int) { return const_iterator(list_, k_++); }
+    const_iterator& operator--() { return --k_, *this; }
+    const_iterator operator--(int) { return const_iterator(list_, k_--); }
+    const_iterator& operator+=(difference_type n) { return k_ += n, *this; }
+    const_iterator& operator-=(difference_type n) { return k_ -= n, *this; }
+    const_iterator operator+(difference_type n) const { return const_iterator(list_, k_ + n); }
+    const_iterator operator-(difference_type n) const { return const_iterator(list_, k_ - n); }
+    friend const_iterator operator+(difference_type n, const const_iterator& it) { return it + n; }
+    difference_type operator-(const const_iterator& o) const {
+      return static_cast<difference_type>(k_) - static_cast<difference_type>(o.k_);
+    }
+    bool operator==(const const_iterator& o) const { return k_ == o.k_; }
+    bool operator!=(const const_iterator& o) const { return k_ != o.k_; }
+    bool operator<(const const_iterator& o) const { return k_ < o.k_; }
+    bool operator>(const const_iterator& o) const { return k_ > o.k_; }
+    bool operator<=(const const_iterator& o) const { return k_ <= o.k_; }
+    bool operator>=(const const_iterator& o) const { return k_ >= o.k_; }
+
+   private:
+    friend class EdgeList;
+    const_iterator(const EdgeList* list, size_t k) : list_(list), k_(k) {}
+    const EdgeList* list_ = nullptr;
+    size_t k_ = 0;
+  };
+
+  explicit EdgeList(int dimension);
+  size_t size() const { return heads_.size(); }
+  bool empty() const { return heads_.empty(); }
+  Edge operator[](size_t k) const;
+  Edge at(size_t k) const;  // throws std::out_of_range
+  Edge front() const { return (*this)[0]; }
+  Edge back() const { return (*this)[size() - 1]; }
+  const_iterator begin() const { return const_iterator(this, 0); }
+  const_iterator end() const { return const_iterator(this, size()); }
+  // Without decoding the rest of the edge.
+  EdgeKind kind(size_t k) const { return heads_[k].kind; }
+
+ private:
+  friend class PoseGraph;
+  struct Head {
+    int64_t from, to;
+    int32_t offset;
+    EdgeKind kind;
+  };
+  void Reserve(size_t n);
+  void Push(const Edge& e);
+  void Set(size_t k, const Edge& e);
+  void Keep(const std::vector<bool>& keep);
+  // Doubles of z and of the information's triangle an edge of this kind uses.
+  int MeasurementSize(EdgeKind kind) const;
+  int InformationSize(EdgeKind kind) const;
+  void Encode(const Edge& e, double* v) const;
+
+  int dimension_;
+  size_t stride_;  // doubles an edge: 9 in 2D, 28 in 3D
+  std::vector<Head> heads_;
+  std::vector<double> values_;
 };
 
 // A line of a file kept as it was, not interpreted (a tag cairn does not
@@ -202,8 +282,13 @@ class PoseGraph {
 
   std::deque<Vertex>& vertices() { return vertices_; }
   const std::deque<Vertex>& vertices() const { return vertices_; }
-  const std::vector<Edge>& edges() const { return edges_; }
-  std::vector<Edge>& mutable_edges() { return edges_; }
+  const EdgeList& edges() const { return edges_; }
+  // Edge k replaced, without AddEdge's checks (the caller's edit of an
+  // edge it took from edges(); its unused parts are dropped as AddEdge does).
+  void SetEdge(size_t k, const Edge& edge);
+  // Only the edges k with keep[k], in their order.
+  void KeepEdges(const std::vector<bool>& keep);
+  void ReserveEdges(size_t n) { edges_.Reserve(n); }
 
   size_t CountEdges(EdgeKind kind) const;
   size_t CountFixed() const;
@@ -226,7 +311,7 @@ class PoseGraph {
   int dimension_;
   std::deque<Vertex> vertices_;
   cairn::VertexIndex index_;
-  std::vector<Edge> edges_;
+  EdgeList edges_;
   std::vector<VerbatimLine> verbatim_lines_;
   size_t landmarks_ = 0;
   std::map<int32_t, SE3> offsets_;

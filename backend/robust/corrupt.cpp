@@ -24,7 +24,8 @@ struct ClosureModel {
 ClosureModel ModelOf(const PoseGraph& graph) {
   ClosureModel m;
   std::vector<const Edge*> closures, odometry;
-  for (const Edge& e : graph.edges()) {
+  const std::vector<Edge> edges(graph.edges().begin(), graph.edges().end());  // decoded once
+  for (const Edge& e : edges) {
     if (e.IsPrior()) continue;
     m.joined.insert(std::minmax(e.from, e.to));
     if (e.kind == EdgeKind::kLoopClosure) {

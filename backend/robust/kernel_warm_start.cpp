@@ -61,11 +61,9 @@ SolveResult SolveKernelWarmStarted(PoseGraph& graph, const RobustLoss& loss,
     const std::vector<bool> left_out = Negligible(graph, *rho, options.min_weight, &count);
     if (count == 0 || left_out == left_out_before) break;
     PoseGraph sub = graph;
-    std::vector<Edge>& edges = sub.mutable_edges();
-    size_t kept = 0;
-    for (size_t k = 0; k < edges.size(); ++k)
-      if (!left_out[k]) edges[kept++] = edges[k];
-    edges.resize(kept);
+    std::vector<bool> keep(left_out.size());
+    for (size_t k = 0; k < keep.size(); ++k) keep[k] = !left_out[k];
+    sub.KeepEdges(keep);
     const SolveResult r = solve(sub, InnerSolve{});
     Accumulate(r, &total);
     if (options.verbose)

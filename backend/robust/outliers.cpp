@@ -890,13 +890,9 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
 
 PoseGraph WithoutEdges(const PoseGraph& graph, const std::vector<size_t>& edges) {
   PoseGraph out = graph;
-  std::vector<bool> drop(graph.edges().size(), false);
-  for (size_t k : edges) drop.at(k) = true;
-  std::vector<Edge>& e = out.mutable_edges();
-  size_t kept = 0;
-  for (size_t k = 0; k < e.size(); ++k)
-    if (!drop[k]) e[kept++] = e[k];
-  e.resize(kept);
+  std::vector<bool> keep(graph.edges().size(), true);
+  for (size_t k : edges) keep.at(k) = false;
+  out.KeepEdges(keep);
   return out;
 }
 

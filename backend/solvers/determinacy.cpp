@@ -264,9 +264,11 @@ GraphGauge ComputeGauge(const PoseGraph& graph) {
   // A fixed pose or a prior on a pose anchors its component (landmark
   // observations join it); a point does not (the rotation about it stays
   // free), so the gauge is always a pose.
+  std::vector<Edge> priors;  // copies (the graph gives its edges by value), not moved below
+  for (size_t k = 0; k < graph.edges().size(); ++k)
+    if (graph.edges().kind(k) == EdgeKind::kPrior) priors.push_back(graph.edges()[k]);
   std::vector<std::vector<const Edge*>> priors_at(vertices.size());
-  for (const Edge& e : graph.edges())
-    if (e.kind == EdgeKind::kPrior) priors_at[graph.VertexIndex(e.from)].push_back(&e);
+  for (const Edge& e : priors) priors_at[graph.VertexIndex(e.from)].push_back(&e);
   for (const std::vector<int64_t>& component : ConnectedComponents(graph)) {
     bool fixed = false;
     long lowest = -1;  // components come sorted: the first touched pose is the lowest

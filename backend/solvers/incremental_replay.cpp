@@ -43,12 +43,15 @@ ReplayPlan PlanReplay(const PoseGraph& graph) {
 template <typename Pose>
 Pose FirstGuess(const PoseGraph& source, const IncrementalOptimizer& opt, const Vertex& v,
                 const std::vector<size_t>& edges) {
+  Edge chosen;  // a copy: the graph gives its edges by value
   const Edge* best = nullptr;
   for (size_t e : edges) {
-    const Edge& edge = source.edges()[e];
+    const Edge edge = source.edges()[e];
     if (!edge.JoinsPoses() || edge.from == edge.to) continue;
-    if (!best || (edge.kind == EdgeKind::kOdometry && best->kind != EdgeKind::kOdometry))
-      best = &edge;
+    if (!best || (edge.kind == EdgeKind::kOdometry && best->kind != EdgeKind::kOdometry)) {
+      chosen = edge;
+      best = &chosen;
+    }
   }
   auto pose_of = [&](int64_t id) {
     if constexpr (std::is_same_v<Pose, SE2>) {

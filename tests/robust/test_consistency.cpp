@@ -356,10 +356,12 @@ TEST(Gnc, HeavyTailedGoodLoopClosuresComeBack) {
     std::mt19937_64 rng(seed);
     std::normal_distribution<double> n01;
     size_t i = 0;
-    for (Edge& e : sim.noisy.mutable_edges()) {
+    for (size_t j = 0; j < sim.noisy.edges().size(); ++j) {
+      Edge e = sim.noisy.edges()[j];
       if (e.kind == EdgeKind::kLoopClosure && i++ % 10 == 0)
         for (int k = 0; k < 3; ++k) e.z[k] += n01(rng) * 3 * (k < 2 ? 0.05 : 0.01);
       e.information = 0.3 * Matrix6d(e.information);
+      sim.noisy.SetEdge(j, e);
     }
     PoseGraph reference = sim.noisy;
     SolveWithCeres(reference, CeresOptions());

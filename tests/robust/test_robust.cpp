@@ -356,7 +356,9 @@ TEST(Leverage, ScreenedInnovationIsABoundOrTheExactValue) {
     const size_t good = g.edges().size();
     AddWrongLoopClosures(g, 30, 7);
     std::vector<Edge> candidates(g.edges().begin() + good, g.edges().end());
-    g.mutable_edges().resize(good);
+    std::vector<bool> keep(g.edges().size(), false);
+    std::fill(keep.begin(), keep.begin() + good, true);
+    g.KeepEdges(keep);
     for (size_t k = 0; k < good; k += 9)
       if (g.edges()[k].kind == EdgeKind::kLoopClosure) candidates.push_back(g.edges()[k]);
     SolveWithCeres(g, QuietCeres());
@@ -388,7 +390,9 @@ TEST(Leverage, AWrongLoopClosureTheEstimateBentToFitStandsOut) {
   AddWrongLoopClosures(g, 1, 9);
   // Ten times as certain as the median loop closure: least squares bends
   // the trajectory to fit it.
-  g.mutable_edges().back().information *= 10;
+  Edge certain = g.edges().back();
+  certain.information *= 10;
+  g.SetEdge(g.edges().size() - 1, certain);
   SolveWithCeres(g, QuietCeres());
   std::vector<size_t> closures;
   for (size_t k = 0; k < g.edges().size(); ++k)

@@ -23,13 +23,15 @@ namespace {
 // Replaces every measurement by the exact relative pose of the true
 // vertices: the optimum is then the truth itself, at chi2 zero.
 void MakeMeasurementsExact(PoseGraph& truth) {
-  for (Edge& e : truth.mutable_edges()) {
+  for (size_t k = 0; k < truth.edges().size(); ++k) {
+    Edge e = truth.edges()[k];
     const PoseParams& xi = truth.vertex(e.from).x;
     if (truth.dimension() == 2) {
       e.z = e.IsPrior() ? xi : ToParams(ToSE2(xi).Between(ToSE2(truth.vertex(e.to).x)));
     } else {
       e.z = e.IsPrior() ? xi : ToParams(ToSE3(xi).Between(ToSE3(truth.vertex(e.to).x)));
     }
+    truth.SetEdge(k, e);
   }
 }
 

@@ -25,7 +25,11 @@ PoseGraph Simulated(int dimension, int poses, uint64_t seed) {
 }
 
 void ScaleInformation(PoseGraph& graph, double s) {
-  for (Edge& e : graph.mutable_edges()) e.information *= s;
+  for (size_t k = 0; k < graph.edges().size(); ++k) {
+    Edge e = graph.edges()[k];
+    e.information *= s;
+    graph.SetEdge(k, e);
+  }
 }
 
 SolveResult Solve(PoseGraph& graph, bool gn, const SolverOptions& common) {

@@ -43,7 +43,7 @@ size_t WriteIndefinite(int dimension, const std::string& path, size_t* first_lin
   std::normal_distribution<double> gauss(0, 1);
   size_t changed = 0, loops = 0, first = 0;
   for (size_t k = 0; k < g.edges().size(); ++k) {
-    Edge& e = g.mutable_edges()[k];
+    Edge e = g.edges()[k];
     if (e.kind != EdgeKind::kLoopClosure || loops++ % 2 != 0) continue;
     if (changed == 0) first = k;
     Eigen::VectorXd u(n);
@@ -53,6 +53,7 @@ size_t WriteIndefinite(int dimension, const std::string& path, size_t* first_lin
     const Eigen::MatrixXd rest = p * e.information.topLeftCorner(n, n) * p;
     const double largest = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(rest).eigenvalues()[n - 1];
     e.information.SetTopLeft(rest - 0.4 * largest * u * u.transpose());
+    g.SetEdge(k, e);
     ++changed;
   }
   WriteG2o(g, path);

@@ -2,7 +2,6 @@
 #include "cairn/graph/output_files.h"
 
 #include <deque>
-#include <sys/mman.h>
 #include <unistd.h>
 
 #include <cctype>
@@ -24,6 +23,7 @@
 #include <sstream>
 #include <vector>
 
+#include "cairn/graph/mapped_allocator.h"
 #include "cairn/graph/pose_graph.h"
 
 namespace cairn {
@@ -201,25 +201,17 @@ struct PendingEdge {
   size_t line;
 };
 
-// Memory mapped from the system for each allocation and unmapped on its
-// release, whatever its size (glibc keeps what is freed below its mmap
-// threshold for later use, resident).
-template <typename T>
-struct PageAllocator {
-  using value_type = T;
-  PageAllocator() = default;
-  template <typename U>
-  PageAllocator(const PageAllocator<U>&) {}  // NOLINT: as std::allocator converts
-  T* allocate(size_t n) {
-    void* p = mmap(nullptr, n * sizeof(T), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    if (p == MAP_FAILED) throw std::bad_alloc();
-    return static_cast<T*>(p);
+// Edges read, waiting until every vertex is known, with their lines; in
+// chunks of kEdges, each of whose arrays is mapped on its own (from 128 KiB,
+// MappedAllocator) and goes back to the system once moved into the graph.
+struct PendingChunk {
+  static constexpr size_t kEdges = size_t{1} << 14;
+  explicit PendingChunk(int dimension) : edges(dimension) {
+    edges.Reserve(kEdges);
+    lines.reserve(kEdges);
   }
-  void deallocate(T* p, size_t n) { munmap(p, n * sizeof(T)); }
-  template <typename U>
-  bool operator==(const PageAllocator<U>&) const { return true; }
-  template <typename U>
-  bool operator!=(const PageAllocator<U>&) const { return false; }
+  EdgeList edges;
+  std::vector<size_t, MappedAllocator<size_t>> lines;
 };
 
 bool LooksBinary(const std::string& line) {
@@ -274,8 +266,9 @@ class Reader {
     // once moved: a large file's edges are held about once, not twice, at
     // the peak.
     graph.ReserveEdges(edge_count_);
-    for (auto& chunk : edge_chunks_) {
-      for (const PendingEdge& p : chunk) {
+    for (PendingChunk& chunk : edge_chunks_) {
+      for (size_t k = 0; k < chunk.edges.size(); ++k) {
+        const PendingEdge p{chunk.edges[k], chunk.lines[k]};
         for (int64_t id : {p.edge.from, p.edge.to}) {
           if (id == p.edge.to && p.edge.IsPrior()) continue;
           if (!graph.HasVertex(id))
@@ -291,7 +284,8 @@ class Reader {
           throw ParseError(name_, p.line, e.what());
         }
       }
-      std::vector<PendingEdge, PageAllocator<PendingEdge>>().swap(chunk);
+      chunk.edges = EdgeList(dimension_);
+      std::vector<size_t, MappedAllocator<size_t>>().swap(chunk.lines);
     }
     for (const auto& [id, line] : fixed_) {
       if (!graph.HasVertex(id))
@@ -399,8 +393,9 @@ class Reader {
                              (landmark ? "pose" : "landmark") + " on line " +
                              std::to_string(it->second.second));
     };
-    for (const auto& chunk : edge_chunks_)
-      for (const auto& p : chunk) {
+    for (const PendingChunk& chunk : edge_chunks_)
+      for (size_t k = 0; k < chunk.edges.size(); ++k) {
+        const PendingEdge p{chunk.edges[k], chunk.lines[k]};
         note(p.edge.from, p.edge.kind == EdgeKind::kLandmarkPrior, p.line);
         if (!p.edge.IsPrior()) note(p.edge.to, p.edge.kind == EdgeKind::kLandmark, p.line);
       }
@@ -564,11 +559,10 @@ class Reader {
   }
 
   void PushEdge(const Fields& f, const Edge& e) {
-    if (edge_chunks_.empty() || edge_chunks_.back().size() == kEdgeChunk) {
-      edge_chunks_.emplace_back();
-      edge_chunks_.back().reserve(kEdgeChunk);
-    }
-    edge_chunks_.back().push_back({e, f.line()});
+    if (edge_chunks_.empty() || edge_chunks_.back().edges.size() == PendingChunk::kEdges)
+      edge_chunks_.emplace_back(dimension_);
+    edge_chunks_.back().edges.Push(e);
+    edge_chunks_.back().lines.push_back(f.line());
     ++edge_count_;
   }
 
@@ -614,13 +608,7 @@ class Reader {
   // Built as vertices are read (no second copy of them); edges wait until
   // every vertex is known.
   std::optional<PoseGraph> graph_;
-  // Pending edges in chunks of about a megabyte, each mapped on its own so
-  // that, freed once moved into the graph, it goes back to the system: a
-  // deque's small blocks stayed in the heap (the edges were held twice),
-  // and one chunk in flight is all that is held twice now (it was 35 MB
-  // when the chunks were made large to get past glibc's mmap threshold).
-  static constexpr size_t kEdgeChunk = size_t{1} << 12;
-  std::vector<std::vector<PendingEdge, PageAllocator<PendingEdge>>> edge_chunks_;
+  std::vector<PendingChunk> edge_chunks_;
   size_t edge_count_ = 0;
   std::vector<std::pair<int64_t, size_t>> fixed_;
   std::map<int64_t, PoseParams> offsets_;  // PARAMS_SE3OFFSET id -> offset

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "cairn/graph/geometry.h"
+#include "cairn/graph/mapped_allocator.h"
 
 namespace cairn {
 
@@ -169,6 +170,11 @@ class EdgeList {
   // Without decoding the rest of the edge.
   EdgeKind kind(size_t k) const { return heads_[k].kind; }
 
+  // Appended as given, without PoseGraph::AddEdge's checks (a graph's own
+  // list takes edges only through it).
+  void Reserve(size_t n);
+  void Push(const Edge& e);
+
  private:
   friend class PoseGraph;
   struct Head {
@@ -176,8 +182,6 @@ class EdgeList {
     int32_t offset;
     EdgeKind kind;
   };
-  void Reserve(size_t n);
-  void Push(const Edge& e);
   void Set(size_t k, const Edge& e);
   void Keep(const std::vector<bool>& keep);
   // Doubles of z and of the information's triangle an edge of this kind uses.
@@ -187,8 +191,8 @@ class EdgeList {
 
   int dimension_;
   size_t stride_;  // doubles an edge: 9 in 2D, 28 in 3D
-  std::vector<Head> heads_;
-  std::vector<double> values_;
+  std::vector<Head, MappedAllocator<Head>> heads_;
+  std::vector<double, MappedAllocator<double>> values_;
 };
 
 // A line of a file kept as it was, not interpreted (a tag cairn does not

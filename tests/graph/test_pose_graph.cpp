@@ -85,6 +85,83 @@ TEST(VertexIndex, FindsEveryIdInAnyOrder) {
   }
 }
 
+// The graph keeps of each edge what its dimension and kind use: every kind
+// in 2D and 3D reads back as added (the unused parts zero, whatever the
+// caller left in them), SetEdge replaces one, KeepEdges drops others in
+// order, and the iterators walk them as a vector's would.
+TEST(EdgeList, KeepsWhatEachKindUses) {
+  for (int dim : {2, 3}) {
+    SCOPED_TRACE(dim);
+    PoseGraph g(dim);
+    if (dim == 2) {
+      g.AddVertex(0, SE2());
+      g.AddVertex(1, SE2(1, 0, 0.1));
+    } else {
+      g.AddVertex(0, SE3());
+      g.AddVertex(1, SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 0, 0)));
+      g.SetOffset(4, SE3());
+    }
+    g.AddLandmark(2, Eigen::Vector3d(1, 2, 3));
+    std::vector<Edge> added;
+    const EdgeKind kinds[] = {EdgeKind::kOdometry, EdgeKind::kLoopClosure, EdgeKind::kPrior,
+                              EdgeKind::kLandmark, EdgeKind::kLandmarkPrior};
+    for (EdgeKind kind : kinds) {
+      Edge e;
+      e.kind = kind;
+      e.from = kind == EdgeKind::kLandmarkPrior ? 2 : 0;
+      e.to = kind == EdgeKind::kLandmark ? 2 : 1;
+      e.offset = kind == EdgeKind::kLandmark && dim == 3 ? 4 : 0;
+      for (int i = 0; i < 7; ++i) e.z[i] = 0.1 * (i + 1) + static_cast<int>(kind);
+      const int n = g.ResidualSize(e);
+      Eigen::MatrixXd info = Eigen::MatrixXd::Identity(n, n) * (2 + static_cast<int>(kind));
+      info(0, 1) = info(1, 0) = 0.25;
+      e.information.SetTopLeft(info);
+      g.AddEdge(e);
+      Edge expected = e;  // what is stored of it
+      const int used = e.IsLandmark() ? dim : g.ParameterSize();
+      for (int i = used; i < 7; ++i) expected.z[i] = 0;
+      added.push_back(expected);
+    }
+    ASSERT_EQ(g.edges().size(), added.size());
+    for (size_t k = 0; k < added.size(); ++k) {
+      const Edge e = g.edges()[k];
+      EXPECT_EQ(e.kind, added[k].kind);
+      EXPECT_EQ(e.from, added[k].from);
+      EXPECT_EQ(e.to, added[k].to);
+      EXPECT_EQ(e.offset, added[k].offset);
+      EXPECT_EQ(e.z, added[k].z);
+      EXPECT_EQ(e.information, added[k].information);
+      EXPECT_EQ(g.edges().kind(k), added[k].kind);
+    }
+    // Numbers in the unused parts are not kept.
+    Edge noisy = added[0];
+    noisy.z[6] = 9;
+    noisy.information(5, 5) = 9;
+    if (dim == 2) {
+      g.SetEdge(0, noisy);
+      EXPECT_EQ(g.edges()[0].z, added[0].z);
+      EXPECT_EQ(g.edges()[0].information, added[0].information);
+    }
+    noisy = added[1];
+    noisy.z[0] = -5;
+    g.SetEdge(1, noisy);
+    EXPECT_EQ(g.edges()[1].z[0], -5);
+    std::vector<Edge> walked(g.edges().begin(), g.edges().end());
+    ASSERT_EQ(walked.size(), added.size());
+    EXPECT_EQ(g.edges().end() - g.edges().begin(), static_cast<std::ptrdiff_t>(added.size()));
+    EXPECT_EQ((*(g.edges().begin() + 3)).kind, EdgeKind::kLandmark);
+    EXPECT_EQ(g.edges().back().kind, EdgeKind::kLandmarkPrior);
+    g.KeepEdges({false, true, false, true, true});
+    ASSERT_EQ(g.edges().size(), 3u);
+    EXPECT_EQ(g.edges()[0].z[0], -5);
+    EXPECT_EQ(g.edges()[1].kind, EdgeKind::kLandmark);
+    EXPECT_EQ(g.edges()[1].information, added[3].information);
+    EXPECT_EQ(g.edges()[2].kind, EdgeKind::kLandmarkPrior);
+    EXPECT_THROW(g.KeepEdges({true}), std::invalid_argument);
+    EXPECT_THROW(g.edges().at(3), std::out_of_range);
+  }
+}
+
 TEST(PoseGraph, EdgeKindsFromIds) {
   EXPECT_EQ(KindForBetween(3, 4), EdgeKind::kOdometry);
   EXPECT_EQ(KindForBetween(4, 3), EdgeKind::kOdometry);

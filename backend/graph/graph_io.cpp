@@ -17,7 +17,6 @@
 #include <iostream>
 #include <limits>
 #include <map>
-#include <new>
 #include <optional>
 #include <set>
 #include <sstream>

@@ -61,12 +61,14 @@ struct BlockMatrix {
   }
 };
 
+// a written into the factorisation (through `places` when given, else into
+// values()), factorised, and b solved for.
 Eigen::VectorXd SolveWith(SparseCholesky& chol, const Eigen::MatrixXd& a,
                           const std::vector<int>& col_ptr, const std::vector<int>& rows,
-                          const Eigen::VectorXd& b) {
-  double* v = chol.values();
+                          const Eigen::VectorXd& b, const ValuePlaces* places = nullptr) {
+  double* v = places ? nullptr : chol.values();
   for (int j = 0; j + 1 < static_cast<int>(col_ptr.size()); ++j)
-    for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) v[k] = a(rows[k], j);
+    for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) (places ? (*places)[k] : v[k]) = a(rows[k], j);
   EXPECT_TRUE(chol.Factorize());
   Eigen::VectorXd x(b.size());
   chol.Solve(b.data(), x.data());
@@ -239,17 +241,6 @@ ValuePlaces TakePlaces(SparseCholesky& chol, size_t entries) {
   return places;
 }
 
-Eigen::VectorXd SolveInPlace(SparseCholesky& chol, const ValuePlaces& places,
-                             const Eigen::MatrixXd& a, const std::vector<int>& col_ptr,
-                             const std::vector<int>& rows, const Eigen::VectorXd& b) {
-  for (int j = 0; j + 1 < static_cast<int>(col_ptr.size()); ++j)
-    for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) places[k] = a(rows[k], j);
-  EXPECT_TRUE(chol.Factorize());
-  Eigen::VectorXd x(b.size());
-  chol.Solve(b.data(), x.data());
-  return x;
-}
-
 TEST_P(TwoHalves, ValuesWrittenInPlaceSolveAsTheirCopy) {
   const BlockMatrix m = GetParam() ? DenseGrid(24) : Grid(24);
   std::vector<int> col_ptr, rows;
@@ -275,8 +266,8 @@ TEST_P(TwoHalves, ValuesWrittenInPlaceSolveAsTheirCopy) {
     const Eigen::VectorXd x = SolveWith(by_copy, a, col_ptr, rows, b);
     EXPECT_LT((x - a.ldlt().solve(b)).norm(), 1e-10 * x.norm());
     const ValuePlaces places = TakePlaces(by_place, rows.size());
-    EXPECT_EQ(SolveInPlace(by_place, places, a, col_ptr, rows, b), x);
-    EXPECT_EQ(SolveInPlace(by_place, places, a2, col_ptr, rows, b),
+    EXPECT_EQ(SolveWith(by_place, a, col_ptr, rows, b, &places), x);
+    EXPECT_EQ(SolveWith(by_place, a2, col_ptr, rows, b, &places),
               SolveWith(by_copy, a2, col_ptr, rows, b));
   }
   // A single factorisation extended: the old places are gone, new ones taken.
@@ -293,7 +284,7 @@ TEST_P(TwoHalves, ValuesWrittenInPlaceSolveAsTheirCopy) {
                               std::vector<int>(grown.blocks, 3)));
   const ValuePlaces places = TakePlaces(by_place, grown_rows.size());
   EXPECT_LT(
-      (SolveInPlace(by_place, places, g, grown_ptr, grown_rows, gb) - g.ldlt().solve(gb)).norm(),
+      (SolveWith(by_place, g, grown_ptr, grown_rows, gb, &places) - g.ldlt().solve(gb)).norm(),
       1e-9);
 }
 

@@ -1,23 +1,22 @@
 // One translation unit per factor: autodiff instantiation is slow to compile.
-#include <ceres/autodiff_cost_function.h>
-
 #include "cairn/factors/autodiff_evaluate.h"
 
 #include "cairn/factors/se3_factors.h"
 
 namespace cairn::factors {
+namespace {
+using Cost = AutoDiff<ceres::AutoDiffCostFunction<SE3BetweenFactor, 6, 7, 7>>;
+}  // namespace
 
 ceres::CostFunction* SE3BetweenFactor::Create(const Eigen::Quaterniond& qz,
                                               const Eigen::Vector3d& tz, const Matrix6d& info) {
-  return new ceres::AutoDiffCostFunction<SE3BetweenFactor, 6, 7, 7>(
-      new SE3BetweenFactor(qz.normalized(), tz, SqrtInformation<6>(info)));
+  return Cost::Create(SE3BetweenFactor(qz.normalized(), tz, SqrtInformation<6>(info)));
 }
 
 bool SE3BetweenFactor::Evaluate(const Eigen::Quaterniond& qz, const Eigen::Vector3d& tz,
                                 const Matrix6d& info, const double* const* p, double* r,
                                 double** J) {
-  return AutoDiffEvaluate<SE3BetweenFactor, 6, 7, 7>(
-      SE3BetweenFactor(qz.normalized(), tz, SqrtInformation<6>(info)), p, r, J);
+  return Cost::Evaluate(SE3BetweenFactor(qz.normalized(), tz, SqrtInformation<6>(info)), p, r, J);
 }
 
 }  // namespace cairn::factors

@@ -86,13 +86,11 @@ void VertexIndex::ToSparse() {
 EdgeList::EdgeList(int dimension) : dimension_(dimension), stride_(dimension == 3 ? 28 : 9) {}
 
 int EdgeList::MeasurementSize(EdgeKind kind) const {
-  const bool point = kind == EdgeKind::kLandmark || kind == EdgeKind::kLandmarkPrior;
-  return point ? dimension_ : (dimension_ == 3 ? 7 : 3);
+  return IsLandmarkKind(kind) ? dimension_ : (dimension_ == 3 ? 7 : 3);
 }
 
 int EdgeList::InformationSize(EdgeKind kind) const {
-  const bool point = kind == EdgeKind::kLandmark || kind == EdgeKind::kLandmarkPrior;
-  return point ? dimension_ : (dimension_ == 3 ? 6 : 3);
+  return IsLandmarkKind(kind) ? dimension_ : (dimension_ == 3 ? 6 : 3);
 }
 
 void EdgeList::Encode(const Edge& e, double* v) const {

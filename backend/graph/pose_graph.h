@@ -27,6 +27,10 @@ namespace cairn {
 // kLandmarkPrior: an absolute measurement of a point.
 enum class EdgeKind { kOdometry, kLoopClosure, kPrior, kLandmark, kLandmarkPrior };
 const char* ToString(EdgeKind kind);
+// An edge on a point: an observation or a point prior.
+inline bool IsLandmarkKind(EdgeKind kind) {
+  return kind == EdgeKind::kLandmark || kind == EdgeKind::kLandmarkPrior;
+}
 
 // A pose's parameters, laid out as g2o writes them: (x, y, theta) in 2D,
 // (x, y, z, qx, qy, qz, qw) in 3D; a landmark's point is the first 2 or 3.
@@ -109,9 +113,7 @@ struct Edge {
 
   // A unary edge (on `from` alone).
   bool IsPrior() const { return kind == EdgeKind::kPrior || kind == EdgeKind::kLandmarkPrior; }
-  bool IsLandmark() const {
-    return kind == EdgeKind::kLandmark || kind == EdgeKind::kLandmarkPrior;
-  }
+  bool IsLandmark() const { return IsLandmarkKind(kind); }
   // Odometry or a loop closure: a relative pose between two poses.
   bool JoinsPoses() const { return kind == EdgeKind::kOdometry || kind == EdgeKind::kLoopClosure; }
 };
@@ -253,7 +255,8 @@ class PoseGraph {
   int BlockSize(const Vertex& v) const { return v.landmark ? dimension_ : ParameterSize(); }
   int BlockTangentSize(const Vertex& v) const { return v.landmark ? dimension_ : TangentSize(); }
   // Rows of an edge's residual: a pose's tangent size, or a point's size.
-  int ResidualSize(const Edge& e) const { return e.IsLandmark() ? dimension_ : TangentSize(); }
+  int ResidualSize(EdgeKind kind) const { return IsLandmarkKind(kind) ? dimension_ : TangentSize(); }
+  int ResidualSize(const Edge& e) const { return ResidualSize(e.kind); }
 
   // Throws std::invalid_argument on a duplicate id. References to vertices
   // stay valid as the graph grows (solvers keep pointers to the parameters).

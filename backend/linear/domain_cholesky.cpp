@@ -447,18 +447,13 @@ class DomainCholmod final : public SparseCholesky {
     auto place = [&](int g) {
       const Half& h = half_[g];
       places->arrays[g] = static_cast<double*>(h.m->x);
-      for (size_t t = 0; t < h.from.size(); ++t)
-        places->index[h.from[t]] = (static_cast<uint32_t>(g) << 31) | static_cast<uint32_t>(h.to[t]);
+      for (size_t t = 0; t < h.from.size(); ++t) places->index[h.from[t]] = ValuePlaces::Place(g, h.to[t]);
     };
-    const uint32_t mask = 0x7fffffffu;
     place(1);
-    c_copies_.clear();
-    for (const Entry& e : c_entries_) c_copies_.push_back({0, static_cast<int>(places->index[e.k] & mask)});
+    c_second_.clear();
+    for (const Entry& e : c_entries_) c_second_.push_back(ValuePlaces::Position(places->index[e.k]));
     place(0);
-    for (size_t c = 0; c < c_entries_.size(); ++c) {
-      c_copies_[c].first = static_cast<int>(places->index[c_entries_[c].k] & mask);
-      c_entries_[c].k = static_cast<size_t>(c_copies_[c].first);
-    }
+    for (Entry& e : c_entries_) e.k = static_cast<size_t>(ValuePlaces::Position(places->index[e.k]));
     for (uint32_t t : places->index)
       if (t == kNowhere) throw std::logic_error("domain Cholesky: an entry of H has no place");
     std::vector<double>().swap(values_);
@@ -476,7 +471,7 @@ class DomainCholmod final : public SparseCholesky {
     if (in_place_) {
       const double* first = static_cast<const double*>(half_[0].m->x);
       double* second = static_cast<double*>(half_[1].m->x);
-      for (const auto& [p0, p1] : c_copies_) second[p1] = first[p0];
+      for (size_t c = 0; c < c_entries_.size(); ++c) second[c_second_[c]] = first[c_entries_[c].k];
     }
     SerialLinearAlgebraScope serial;
     pool_->ParallelFor(2, [&](size_t begin, size_t end) {
@@ -561,7 +556,7 @@ class DomainCholmod final : public SparseCholesky {
 
   void Release() {
     in_place_ = false;
-    c_copies_.clear();
+    c_second_.clear();
     whole_.reset();
     for (Half& h : half_) {
       h.Release();
@@ -592,7 +587,7 @@ class DomainCholmod final : public SparseCholesky {
   Half half_[2];
   std::vector<int> top_;          // the separator's unknowns, in order
   std::vector<Entry> c_entries_;  // entries of H in C: index (in place: in the first half), place in T
-  std::vector<std::pair<int, int>> c_copies_;  // in place: C's entries, first half -> second
+  std::vector<int> c_second_;  // in place: where each of c_entries_ lies in the second half
   bool in_place_ = false;
   std::vector<double> values_;    // H's values, as the caller writes them
   Eigen::MatrixXd s_;                   // S, lower triangle

@@ -24,8 +24,12 @@ struct ValuePlaces {
   std::vector<uint32_t> index;
   double& operator[](size_t k) const {
     const uint32_t t = index[k];
-    return arrays[t >> 31][t & 0x7fffffffu];
+    return arrays[t >> 31][Position(t)];
   }
+  static uint32_t Place(int array, int position) {
+    return (static_cast<uint32_t>(array) << 31) | static_cast<uint32_t>(position);
+  }
+  static int Position(uint32_t place) { return static_cast<int>(place & 0x7fffffffu); }
 };
 
 class SparseCholesky {

@@ -66,10 +66,6 @@ bool EvaluateEdge(const PoseGraph& graph, const Edge& edge, const double* const*
   });
 }
 
-int EdgeResiduals(const PoseGraph& graph, const Edge& edge) {
-  if (edge.IsLandmark()) return graph.dimension();
-  return graph.TangentSize();
-}
 
 std::unique_ptr<ceres::LossFunction> MakeLoss(const RobustLoss& loss) {
   switch (loss.kind) {

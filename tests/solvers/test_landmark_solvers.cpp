@@ -213,7 +213,7 @@ TEST(GraphResiduals, EvaluateAsTheCostFunctionToTheLastBit) {
       ++kinds[static_cast<int>(e.kind)];
       const std::unique_ptr<ceres::CostFunction> cost(MakeCostFunction(g, e));
       const int m = cost->num_residuals();
-      ASSERT_EQ(EdgeResiduals(g, e), m);
+      ASSERT_EQ(g.ResidualSize(e), m);
       std::vector<const double*> params = {g.vertex(e.from).x.data()};
       if (!e.IsPrior()) params.push_back(g.vertex(e.to).x.data());
       std::vector<std::vector<double>> jc, je;

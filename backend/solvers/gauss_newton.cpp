@@ -55,7 +55,8 @@ struct GaussNewtonProblem::Workspace {
   // part. Otherwise they live only in a worker's scratch while they add to b
   // and H, group by group (below).
   bool keep_jacobians = false;
-  std::vector<int> residual_offset;  // into r
+  int residual_rows = 0, max_rows = 1;  // all residuals' rows, one residual's most
+  std::vector<int> residual_offset;  // into r, which is kept with the Jacobians
   std::vector<int> slot_start, jac_local_off;
   std::vector<double> r, jac_local;
   size_t max_ambient = 1;  // the most doubles one residual's ambient Jacobians take
@@ -483,8 +484,8 @@ void GaussNewtonProblem::NumberVariables() {
 void GaussNewtonProblem::AllocateResiduals(bool keep_jacobians) {
   Workspace& w = *ws_;
   int r_total = 0, jl_total = 0, slots = 0;
-  w.residual_offset.resize(residuals_.size());
   if (keep_jacobians) {
+    w.residual_offset.resize(residuals_.size());
     w.slot_start.resize(residuals_.size() + 1);
     for (size_t k = 0; k < residuals_.size(); ++k) {
       w.slot_start[k] = slots;
@@ -495,8 +496,9 @@ void GaussNewtonProblem::AllocateResiduals(bool keep_jacobians) {
   }
   for (size_t k = 0; k < residuals_.size(); ++k) {
     const int m = residuals_[k].m;
-    w.residual_offset[k] = r_total;
+    if (keep_jacobians) w.residual_offset[k] = r_total;
     r_total += m;
+    w.max_rows = std::max(w.max_rows, m);
     size_t ambient = 0, local = 0;
     const BlockList rb = BlocksOf(residuals_[k]);
     for (size_t p = 0; p < rb.size(); ++p) {
@@ -511,7 +513,8 @@ void GaussNewtonProblem::AllocateResiduals(bool keep_jacobians) {
     w.max_ambient = std::max(w.max_ambient, ambient);
     w.max_local = std::max(w.max_local, local);
   }
-  w.r.resize(r_total);
+  w.residual_rows = r_total;
+  if (keep_jacobians) w.r.resize(r_total);
   w.jac_local.resize(jl_total);
   w.chi2_terms.resize(residuals_.size());
   const int nvar = static_cast<int>(w.variables.size());
@@ -909,7 +912,7 @@ bool GaussNewtonProblem::MarginalCovariances(const std::vector<const double*>& w
 
 
 
-void GaussNewtonProblem::EvaluateResidual(size_t k, double* ambient, double* local) {
+void GaussNewtonProblem::EvaluateResidual(size_t k, double* r, double* ambient, double* local) {
   Workspace& w = *ws_;
   thread_local std::vector<const double*> params;
   thread_local std::vector<double*> jac;
@@ -927,7 +930,6 @@ void GaussNewtonProblem::EvaluateResidual(size_t k, double* ambient, double* loc
       used += static_cast<size_t>(m) * blk.size;
     }
   }
-  double* r = w.r.data() + w.residual_offset[k];
   Eigen::Map<Eigen::VectorXd> rv(r, m);
   if (!res.Evaluate(params.data(), r, local ? jac.data() : nullptr)) {
     // No step is taken from here: the terms are zero so that H stays whole.
@@ -973,12 +975,11 @@ void AddDiagonal(const double* jp, int m, int t, double* sum, double* buffer) {
 }  // namespace
 
 // The pairs are taken as ForEachPair numbers them.
-void GaussNewtonProblem::AddResidualTerms(size_t k, const double* local, bool assemble_h,
-                                          double* buffer) {
+void GaussNewtonProblem::AddResidualTerms(size_t k, const double* r, const double* local,
+                                          bool assemble_h, double* buffer) {
   Workspace& w = *ws_;
   const Residual& res = residuals_[k];
   const int m = res.m;
-  const double* r = w.r.data() + w.residual_offset[k];
   const BlockList rb = BlocksOf(res);
   const bool in_place = !w.places.index.empty();
   const int ld = w.max_tangent;
@@ -1081,7 +1082,8 @@ void GaussNewtonProblem::EvaluateKept() {
     thread_local std::vector<double> ambient, local;
     if (ambient.size() < w.max_ambient) ambient.resize(w.max_ambient);
     if (local.size() < w.max_local) local.resize(w.max_local);
-    for (size_t k = begin; k < end; ++k) EvaluateResidual(k, ambient.data(), local.data());
+    for (size_t k = begin; k < end; ++k)
+      EvaluateResidual(k, w.r.data() + w.residual_offset[k], ambient.data(), local.data());
   });
   const int nvar = static_cast<int>(w.variables.size());
   pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
@@ -1108,14 +1110,15 @@ void GaussNewtonProblem::EvaluateInGroups() {
   for (size_t g = 0; g < groups; ++g) {
     const int* members = w.by_group.data() + w.group_start[g];
     pool_->ParallelFor(w.group_start[g + 1] - w.group_start[g], [&](size_t begin, size_t end) {
-      thread_local std::vector<double> ambient, local, buffer;
+      thread_local std::vector<double> r, ambient, local, buffer;
+      if (r.size() < static_cast<size_t>(w.max_rows)) r.resize(w.max_rows);
       if (ambient.size() < w.max_ambient) ambient.resize(w.max_ambient);
       if (local.size() < w.max_local) local.resize(w.max_local);
       const size_t square = static_cast<size_t>(w.max_tangent) * w.max_tangent;
       if (buffer.size() < square) buffer.resize(square);
       for (size_t i = begin; i < end; ++i) {
-        EvaluateResidual(members[i], ambient.data(), local.data());
-        AddResidualTerms(members[i], local.data(), assemble_h, buffer.data());
+        EvaluateResidual(members[i], r.data(), ambient.data(), local.data());
+        AddResidualTerms(members[i], r.data(), local.data(), assemble_h, buffer.data());
       }
     }, kMinResidualsPerThread);
   }
@@ -1411,7 +1414,7 @@ void GaussNewtonProblem::FullStep(SolveState& s, int iter) {
   const double g_max = MaxAbs(w.b, w.n);
   // Relative to chi2 per residual, as on the Ceres path, so that scaling
   // every information matrix leaves the iterations as they are.
-  const double per_residual = s.chi2 / std::max<size_t>(1, w.r.size());
+  const double per_residual = s.chi2 / std::max(1, w.residual_rows);
   if (g_max <= s.options.gradient_tolerance * per_residual) {
     char text[112];
     std::snprintf(text, sizeof text,

@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cstring>
 #include <limits>
 #include <numeric>
 #include <queue>
@@ -83,7 +84,8 @@ void VertexIndex::ToSparse() {
   dense_ = false;
 }
 
-EdgeList::EdgeList(int dimension) : dimension_(dimension), stride_(dimension == 3 ? 28 : 9) {}
+EdgeList::EdgeList(int dimension)
+    : dimension_(dimension), stride_(dimension == 3 ? 7 : 3), info_stride_(dimension == 3 ? 21 : 6) {}
 
 int EdgeList::MeasurementSize(EdgeKind kind) const {
   return IsLandmarkKind(kind) ? dimension_ : (dimension_ == 3 ? 7 : 3);
@@ -94,10 +96,29 @@ int EdgeList::InformationSize(EdgeKind kind) const {
 }
 
 void EdgeList::Encode(const Edge& e, double* v) const {
-  const int m = MeasurementSize(e.kind), n = InformationSize(e.kind);
-  for (int i = 0; i < m; ++i) *v++ = e.z[i];
+  std::fill(v, v + stride_, 0.0);
+  const int m = MeasurementSize(e.kind);
+  for (int i = 0; i < m; ++i) v[i] = e.z[i];
+}
+
+// The index of e's triangle: one of the recent ones if equal to the bit
+// (so -0.0 and NaN payloads come back as read), else a new entry.
+uint32_t EdgeList::Intern(const Edge& e) {
+  double t[21] = {};
+  const int n = InformationSize(e.kind);
+  double* v = t;
   for (int r = 0; r < n; ++r)
     for (int c = r; c < n; ++c) *v++ = e.information(r, c);
+  const size_t bytes = info_stride_ * sizeof(double);
+  for (int i = 0; i < recent_count_; ++i)
+    if (std::memcmp(infos_.data() + recent_[i] * info_stride_, t, bytes) == 0) return recent_[i];
+  const size_t index = infos_.size() / info_stride_;
+  if (index > std::numeric_limits<uint32_t>::max()) throw std::length_error("too many edges");
+  infos_.insert(infos_.end(), t, t + info_stride_);
+  recent_[recent_next_] = static_cast<uint32_t>(index);
+  recent_next_ = (recent_next_ + 1) % kRecent;
+  recent_count_ = std::min(recent_count_ + 1, kRecent);
+  return static_cast<uint32_t>(index);
 }
 
 Edge EdgeList::operator[](size_t k) const {
@@ -109,10 +130,11 @@ Edge EdgeList::operator[](size_t k) const {
   e.to = h.to;
   const double* v = values_.data() + k * stride_;
   const int m = MeasurementSize(h.kind), n = InformationSize(h.kind);
-  for (int i = 0; i < m; ++i) e.z[i] = *v++;
+  for (int i = 0; i < m; ++i) e.z[i] = v[i];
+  const double* t = infos_.data() + static_cast<size_t>(info_[k]) * info_stride_;
   e.information.v_.fill(0.0);
   for (int r = 0; r < n; ++r)
-    for (int c = r; c < n; ++c) e.information.v_[SymmetricMatrix6::Index(r, c)] = *v++;
+    for (int c = r; c < n; ++c) e.information.v_[SymmetricMatrix6::Index(r, c)] = *t++;
   return e;
 }
 
@@ -121,34 +143,41 @@ Edge EdgeList::at(size_t k) const {
   return (*this)[k];
 }
 
+// Room for n distinct triangles too: mapped, it takes memory only as far as
+// they are written.
 void EdgeList::Reserve(size_t n) {
   heads_.reserve(n);
   values_.reserve(n * stride_);
+  info_.reserve(n);
+  infos_.reserve(n * info_stride_);
 }
 
 void EdgeList::Push(const Edge& e) {
   heads_.push_back(Head{e.from, e.to, e.offset, e.kind});
-  values_.resize(values_.size() + stride_, 0.0);
+  values_.resize(values_.size() + stride_);
   Encode(e, values_.data() + values_.size() - stride_);
+  info_.push_back(Intern(e));
 }
 
 void EdgeList::Set(size_t k, const Edge& e) {
   heads_.at(k) = Head{e.from, e.to, e.offset, e.kind};
-  double* v = values_.data() + k * stride_;
-  std::fill(v, v + stride_, 0.0);
-  Encode(e, v);
+  Encode(e, values_.data() + k * stride_);
+  info_[k] = Intern(e);
 }
 
+// Triangles no edge uses any more stay in the table.
 void EdgeList::Keep(const std::vector<bool>& keep) {
   size_t kept = 0;
   for (size_t k = 0; k < heads_.size(); ++k) {
     if (!keep.at(k)) continue;
     heads_[kept] = heads_[k];
     std::copy_n(values_.begin() + k * stride_, stride_, values_.begin() + kept * stride_);
+    info_[kept] = info_[k];
     ++kept;
   }
   heads_.resize(kept);
   values_.resize(kept * stride_);
+  info_.resize(kept);
 }
 
 PoseGraph::PoseGraph(int dimension) : dimension_(dimension), edges_(dimension) {

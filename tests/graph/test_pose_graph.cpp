@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <limits>
+#include <cstring>
 #include <set>
 #include <vector>
 
@@ -160,6 +161,56 @@ TEST(EdgeList, KeepsWhatEachKindUses) {
     EXPECT_THROW(g.KeepEdges({true}), std::invalid_argument);
     EXPECT_THROW(g.edges().at(3), std::out_of_range);
   }
+}
+
+// Information matrices are interned: edges whose triangles are equal to the
+// bit share one, and every edge still reads back its own, whether the
+// triangles repeat (a front-end's usual), alternate between kinds, all
+// differ, or differ only in the sign of a zero; replacing or dropping an
+// edge leaves the others as they were.
+TEST(EdgeList, SharedInformationReadsBackPerEdge) {
+  PoseGraph g(3);
+  for (int64_t i = 0; i < 40; ++i)
+    g.AddVertex(i, SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(i, 0, 0)));
+  std::vector<Edge> added;
+  for (int64_t i = 0; i + 1 < 40; ++i) {
+    Edge e;
+    e.kind = i % 3 == 0 ? EdgeKind::kLoopClosure : EdgeKind::kOdometry;
+    e.from = i;
+    e.to = i + 1;
+    e.z = {1, 0, 0, 0, 0, 0, 1};
+    Matrix6d info = Matrix6d::Identity() * (e.kind == EdgeKind::kOdometry ? 100.0 : 7.0);
+    if (i >= 20) info(2, 2) += 1e-9 * static_cast<double>(i);  // from here on all differ
+    if (i == 12 || i == 13) info(0, 1) = info(1, 0) = (i == 12 ? 0.0 : -0.0);
+    e.information = info;
+    g.AddEdge(e);
+    added.push_back(e);
+  }
+  auto expect_all = [&](const std::vector<Edge>& want) {
+    ASSERT_EQ(g.edges().size(), want.size());
+    for (size_t k = 0; k < want.size(); ++k) {
+      const Edge e = g.edges()[k];
+      for (int r = 0; r < 6; ++r)
+        for (int c = 0; c < 6; ++c) {
+          const double a = e.information(r, c), b = want[k].information(r, c);
+          ASSERT_EQ(std::memcmp(&a, &b, sizeof a), 0) << "edge " << k << " (" << r << "," << c << ")";
+        }
+    }
+  };
+  expect_all(added);
+  // One edge of a shared triangle changed: the others keep theirs.
+  Edge changed = added[4];
+  changed.information(3, 3) = 55;
+  g.SetEdge(4, changed);
+  added[4] = changed;
+  expect_all(added);
+  // Dropping every other edge keeps what the rest read.
+  std::vector<bool> keep(added.size());
+  std::vector<Edge> kept;
+  for (size_t k = 0; k < added.size(); ++k)
+    if ((keep[k] = k % 2 == 0)) kept.push_back(added[k]);
+  g.KeepEdges(keep);
+  expect_all(kept);
 }
 
 TEST(PoseGraph, EdgeKindsFromIds) {

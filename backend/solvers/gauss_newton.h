@@ -146,9 +146,9 @@ class GaussNewtonProblem {
   struct TrialStep;
 
   // Prepare's stages, in order: number the variables, lay out the residuals'
-  // storage, group the residuals, plan which block of H each pair of a
-  // residual's variables adds to, lay out H's scalar pattern, then the
-  // symbolic analysis.
+  // storage, plan who adds to b (with the Jacobians kept) or group the
+  // residuals, plan which block of H each pair of a residual's variables
+  // adds to, lay out H's scalar pattern, then the symbolic analysis.
   void AddResidual(Residual r, const std::vector<double*>& blocks, const std::vector<int>& sizes);
   // A residual's blocks (indices into blocks_).
   struct BlockList {

@@ -21,30 +21,56 @@ namespace cairn {
 
 using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
+// Blocks and residuals are records of a million or more on a large graph:
+// their fields are as narrow as their ranges allow (32 and 20 bytes, where
+// pointers and owned objects in each had made them 40 and 48).
 struct GaussNewtonProblem::Block {
   double* values;
-  int size;     // ambient
-  int tangent;  // local
   const ceres::Manifold* manifold;
-  bool constant = false;
+  uint16_t size;     // ambient
+  uint16_t tangent;  // local
   int offset = -1;  // first row of this block in H; -1 when constant
   int variable = -1;
+  bool constant = false;
 };
 
 struct GaussNewtonProblem::Residual {
-  std::unique_ptr<ceres::CostFunction> cost;  // null for a family's member
-  const ResidualFamily* family = nullptr;
-  size_t member = 0;
-  std::unique_ptr<ceres::LossFunction> loss;
-  int first_block = 0;  // its blocks are residual_blocks_[first_block, + arity)
-  int arity = 0;
-  int m = 0;  // residuals
-
-  bool Evaluate(const double* const* params, double* r, double** jacobians) const {
-    return cost ? cost->Evaluate(params, r, jacobians)
-                : family->Evaluate(member, params, r, jacobians);
-  }
+  uint32_t source = 0;      // into sources_
+  uint32_t member = 0;      // a family's member
+  int32_t first_block = 0;  // its blocks are residual_blocks_[first_block, + arity)
+  uint16_t arity = 0;
+  uint16_t m = 0;     // residuals
+  int32_t loss = -1;  // into losses_; -1: none
 };
+
+// What evaluates residuals: a cost function of one residual's own, or a
+// family shared by a run of them.
+struct GaussNewtonProblem::Source {
+  std::unique_ptr<ceres::CostFunction> cost;
+  const ResidualFamily* family = nullptr;
+};
+
+namespace {
+
+template <typename T>
+T Narrow(size_t value, const char* what) {
+  if (value > std::numeric_limits<T>::max())
+    throw std::length_error(std::string("too many ") + what + " for the Gauss-Newton problem");
+  return static_cast<T>(value);
+}
+
+}  // namespace
+
+bool GaussNewtonProblem::EvaluateOf(const Residual& r, const double* const* params, double* out,
+                                    double** jacobians) const {
+  const Source& s = sources_[r.source];
+  return s.cost ? s.cost->Evaluate(params, out, jacobians)
+                : s.family->Evaluate(r.member, params, out, jacobians);
+}
+
+const ceres::LossFunction* GaussNewtonProblem::LossOf(const Residual& r) const {
+  return r.loss < 0 ? nullptr : losses_[r.loss].get();
+}
 
 // Everything a solve needs, allocated once before the first iteration.
 struct GaussNewtonProblem::Workspace {
@@ -62,7 +88,9 @@ struct GaussNewtonProblem::Workspace {
   size_t max_ambient = 1;  // the most doubles one residual's ambient Jacobians take
   size_t max_local = 1;    // ... and its local ones
   std::vector<double> chi2_terms;                  // per residual, rho(|r|^2)
-  // Per variable block: the manifold's PlusJacobian (size x tangent).
+  // Per variable block: the manifold's PlusJacobian (size x tangent), kept
+  // with the Jacobians (72 MB at a million 2D poses); without them each
+  // residual takes its blocks' again, in a worker's scratch.
   std::vector<int> plus_jac_off;
   std::vector<double> plus_jac;
   // H's upper triangle, block by block: for block (r, c) with r <= c,
@@ -169,8 +197,10 @@ void GaussNewtonProblem::AddParameterBlock(double* values, int size,
   }
   if (manifold && manifold->AmbientSize() != size)
     throw std::invalid_argument("manifold's ambient size differs from the block's size");
+  if (size < 0) throw std::invalid_argument("a parameter block of negative size");
+  const auto tangent = Narrow<uint16_t>(manifold ? manifold->TangentSize() : size, "parameters in a block");
   block_index_.emplace(values, static_cast<int>(blocks_.size()));
-  blocks_.push_back(Block{values, size, manifold ? manifold->TangentSize() : size, manifold});
+  blocks_.push_back(Block{values, manifold, Narrow<uint16_t>(size, "parameters in a block"), tangent});
 }
 
 void GaussNewtonProblem::SetParameterBlockConstant(double* values) {
@@ -181,39 +211,47 @@ void GaussNewtonProblem::SetParameterBlockConstant(double* values) {
 
 void GaussNewtonProblem::AddResidualBlock(ceres::CostFunction* cost, ceres::LossFunction* loss,
                                           const std::vector<double*>& blocks) {
-  Residual r;
-  r.cost.reset(cost);
-  r.loss.reset(loss);
-  r.m = cost->num_residuals();
+  std::unique_ptr<ceres::CostFunction> owned(cost);
+  std::unique_ptr<ceres::LossFunction> owned_loss(loss);
   const auto& sizes = cost->parameter_block_sizes();
   if (sizes.size() != blocks.size())
     throw std::invalid_argument("cost function takes a different number of parameter blocks");
-  AddResidual(std::move(r), blocks, std::vector<int>(sizes.begin(), sizes.end()));
+  Residual r;
+  r.m = Narrow<uint16_t>(cost->num_residuals(), "residuals in a block");
+  r.source = Narrow<uint32_t>(sources_.size(), "cost functions");
+  sources_.push_back(Source{std::move(owned), nullptr});
+  AddResidual(r, std::move(owned_loss), blocks, std::vector<int>(sizes.begin(), sizes.end()));
 }
 
 void GaussNewtonProblem::AddResidualBlock(const ResidualFamily* family, size_t member,
                                           ceres::LossFunction* loss,
                                           const std::vector<double*>& blocks,
                                           const std::vector<int>& block_sizes) {
-  Residual r;
-  r.family = family;
-  r.member = member;
-  r.loss.reset(loss);
-  r.m = family->NumResiduals(member);
+  std::unique_ptr<ceres::LossFunction> owned_loss(loss);
   if (block_sizes.size() != blocks.size())
     throw std::invalid_argument("a residual's blocks and their sizes differ in number");
-  AddResidual(std::move(r), blocks, block_sizes);
+  Residual r;
+  r.member = Narrow<uint32_t>(member, "members of a residual family");
+  r.m = Narrow<uint16_t>(family->NumResiduals(member), "residuals in a block");
+  if (sources_.empty() || sources_.back().family != family) sources_.push_back(Source{nullptr, family});
+  r.source = Narrow<uint32_t>(sources_.size() - 1, "cost functions");
+  AddResidual(r, std::move(owned_loss), blocks, block_sizes);
 }
 
-void GaussNewtonProblem::AddResidual(Residual r, const std::vector<double*>& blocks,
+void GaussNewtonProblem::AddResidual(Residual r, std::unique_ptr<ceres::LossFunction> loss,
+                                     const std::vector<double*>& blocks,
                                      const std::vector<int>& sizes) {
-  r.first_block = static_cast<int>(residual_blocks_.size());
-  r.arity = static_cast<int>(blocks.size());
+  r.first_block = Narrow<int32_t>(residual_blocks_.size(), "blocks of all residuals");
+  r.arity = Narrow<uint16_t>(blocks.size(), "blocks in a residual");
   for (size_t k = 0; k < blocks.size(); ++k) {
     AddParameterBlock(blocks[k], sizes[k]);
     residual_blocks_.push_back(block_index_.at(blocks[k]));
   }
-  residuals_.push_back(std::move(r));
+  if (loss) {
+    r.loss = Narrow<int32_t>(losses_.size(), "loss functions");
+    losses_.push_back(std::move(loss));
+  }
+  residuals_.push_back(r);
 }
 
 GaussNewtonProblem::BlockList GaussNewtonProblem::BlocksOf(const Residual& r) const {
@@ -385,11 +423,11 @@ double GaussNewtonProblem::Chi2() {
     r.resize(res.m);
     params.clear();
     for (int b : BlocksOf(res)) params.push_back(blocks_[b].values);
-    if (!res.Evaluate(params.data(), r.data(), nullptr))
+    if (!EvaluateOf(res, params.data(), r.data(), nullptr))
       return std::numeric_limits<double>::quiet_NaN();
     double s = 0;
     for (double v : r) s += v * v;
-    sum += RhoOf(res.loss.get(), s, nullptr);
+    sum += RhoOf(LossOf(res), s, nullptr);
   }
   return sum;
 }
@@ -472,8 +510,8 @@ void GaussNewtonProblem::NumberVariables() {
     variables.push_back(static_cast<int>(i));
   }
   for (const Block& b : blocks_) {
-    w.max_tangent = std::max(w.max_tangent, b.tangent);
-    w.max_size = std::max(w.max_size, b.size);
+    w.max_tangent = std::max<int>(w.max_tangent, b.tangent);
+    w.max_size = std::max<int>(w.max_size, b.size);
   }
   for (const Residual& r : residuals_)
     w.max_arity = std::max(w.max_arity, static_cast<size_t>(r.arity));
@@ -517,6 +555,7 @@ void GaussNewtonProblem::AllocateResiduals(bool keep_jacobians) {
   if (keep_jacobians) w.r.resize(r_total);
   w.jac_local.resize(jl_total);
   w.chi2_terms.resize(residuals_.size());
+  if (!keep_jacobians) return;
   const int nvar = static_cast<int>(w.variables.size());
   w.plus_jac_off.resize(nvar);
   int pj_total = 0;
@@ -931,7 +970,7 @@ void GaussNewtonProblem::EvaluateResidual(size_t k, double* r, double* ambient, 
     }
   }
   Eigen::Map<Eigen::VectorXd> rv(r, m);
-  if (!res.Evaluate(params.data(), r, local ? jac.data() : nullptr)) {
+  if (!EvaluateOf(res, params.data(), r, local ? jac.data() : nullptr)) {
     // No step is taken from here: the terms are zero so that H stays whole.
     w.chi2_terms[k] = std::numeric_limits<double>::infinity();
     rv.setZero();
@@ -939,21 +978,28 @@ void GaussNewtonProblem::EvaluateResidual(size_t k, double* r, double* ambient, 
     return;
   }
   double weight;
-  w.chi2_terms[k] = RhoOf(res.loss.get(), rv.squaredNorm(), &weight);
+  const ceres::LossFunction* loss = LossOf(res);
+  w.chi2_terms[k] = RhoOf(loss, rv.squaredNorm(), &weight);
   if (!local) return;
   // Iteratively reweighted: sqrt(rho') scales residual and Jacobian.
   const double sw = std::sqrt(std::max(weight, 0.0));
-  if (res.loss) rv *= sw;
+  if (loss) rv *= sw;
   for (size_t p = 0; p < rb.size(); ++p) {
     if (!jac[p]) continue;
     const Block& blk = blocks_[rb[p]];
     if (blk.manifold) {
-      LocalJacobian(jac[p], w.plus_jac.data() + w.plus_jac_off[blk.variable], local, m, blk.size,
-                    blk.tangent);
+      const double* plus = w.plus_jac.data() + (w.keep_jacobians ? w.plus_jac_off[blk.variable] : 0);
+      if (!w.keep_jacobians) {
+        thread_local std::vector<double> own;
+        own.resize(static_cast<size_t>(blk.size) * blk.tangent);
+        blk.manifold->PlusJacobian(blk.values, own.data());
+        plus = own.data();
+      }
+      LocalJacobian(jac[p], plus, local, m, blk.size, blk.tangent);
     } else {
       std::copy(jac[p], jac[p] + m * blk.size, local);
     }
-    if (res.loss) Eigen::Map<Eigen::VectorXd>(local, m * blk.tangent) *= sw;
+    if (loss) Eigen::Map<Eigen::VectorXd>(local, m * blk.tangent) *= sw;
     if (!w.jac_local_off.empty())  // kQR keeps them for A
       std::copy(local, local + m * blk.tangent,
                 w.jac_local.data() + w.jac_local_off[w.slot_start[k] + p]);
@@ -1060,13 +1106,13 @@ double GaussNewtonProblem::Evaluate() {
   Workspace& w = *ws_;
   const std::vector<int>& variables = w.variables;
   const int nvar = static_cast<int>(variables.size());
-  pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
-    for (size_t v = begin; v < end; ++v) {
-      const Block& b = blocks_[variables[v]];
-      if (b.manifold) b.manifold->PlusJacobian(b.values, w.plus_jac.data() + w.plus_jac_off[v]);
-    }
-  });
   if (w.keep_jacobians) {
+    pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
+      for (size_t v = begin; v < end; ++v) {
+        const Block& b = blocks_[variables[v]];
+        if (b.manifold) b.manifold->PlusJacobian(b.values, w.plus_jac.data() + w.plus_jac_off[v]);
+      }
+    });
     EvaluateKept();
   } else {
     EvaluateInGroups();

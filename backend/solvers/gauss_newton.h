@@ -139,6 +139,7 @@ class GaussNewtonProblem {
  private:
   struct Block;
   struct Residual;
+  struct Source;
   struct Workspace;
   struct HBlock;
   struct PreviousAnalysis;
@@ -149,7 +150,11 @@ class GaussNewtonProblem {
   // storage, plan who adds to b (with the Jacobians kept) or group the
   // residuals, plan which block of H each pair of a residual's variables
   // adds to, lay out H's scalar pattern, then the symbolic analysis.
-  void AddResidual(Residual r, const std::vector<double*>& blocks, const std::vector<int>& sizes);
+  void AddResidual(Residual r, std::unique_ptr<ceres::LossFunction> loss,
+                   const std::vector<double*>& blocks, const std::vector<int>& sizes);
+  bool EvaluateOf(const Residual& r, const double* const* params, double* out,
+                  double** jacobians) const;
+  const ceres::LossFunction* LossOf(const Residual& r) const;
   // A residual's blocks (indices into blocks_).
   struct BlockList {
     const int* first;
@@ -219,6 +224,8 @@ class GaussNewtonProblem {
   std::vector<Block> blocks_;
   std::unordered_map<const double*, int> block_index_;
   std::vector<Residual> residuals_;
+  std::vector<Source> sources_;
+  std::vector<std::unique_ptr<ceres::LossFunction>> losses_;
   std::vector<int> residual_blocks_;  // each residual's blocks, one after another
   std::unique_ptr<Workspace> ws_;
   std::unique_ptr<ThreadPool> pool_;

@@ -52,6 +52,11 @@ struct GaussNewtonProblem::Source {
 
 namespace {
 
+// Members of a group evaluated by one thread in a row, their chi2 summed:
+// a residual costs 1-5 us, waking the other threads for a group about as
+// much as a few dozen.
+constexpr size_t kChi2Run = 32;
+
 template <typename T>
 T Narrow(size_t value, const char* what) {
   if (value > std::numeric_limits<T>::max())
@@ -87,7 +92,10 @@ struct GaussNewtonProblem::Workspace {
   std::vector<double> r, jac_local;
   size_t max_ambient = 1;  // the most doubles one residual's ambient Jacobians take
   size_t max_local = 1;    // ... and its local ones
-  std::vector<double> chi2_terms;                  // per residual, rho(|r|^2)
+  // chi2 summed in a fixed order whatever the thread count: per residual
+  // (rho(|r|^2)) with the Jacobians kept; without, per run of kChi2Run
+  // members of a group, in group order.
+  std::vector<double> chi2_terms;
   // Per variable block: the manifold's PlusJacobian (size x tangent), kept
   // with the Jacobians (72 MB at a million 2D poses); without them each
   // residual takes its blocks' again, in a worker's scratch.
@@ -554,8 +562,8 @@ void GaussNewtonProblem::AllocateResiduals(bool keep_jacobians) {
   w.residual_rows = r_total;
   if (keep_jacobians) w.r.resize(r_total);
   w.jac_local.resize(jl_total);
+  if (!keep_jacobians) return;  // the groups size chi2_terms
   w.chi2_terms.resize(residuals_.size());
-  if (!keep_jacobians) return;
   const int nvar = static_cast<int>(w.variables.size());
   w.plus_jac_off.resize(nvar);
   int pj_total = 0;
@@ -700,6 +708,10 @@ void GaussNewtonProblem::GroupResiduals() {
   w.by_group.resize(nres);
   std::vector<int> next(w.group_start.begin(), w.group_start.end() - 1);
   for (size_t k = 0; k < nres; ++k) w.by_group[next[group[k]]++] = static_cast<int>(k);
+  size_t runs = 0;
+  for (int g = 0; g < groups; ++g)
+    runs += (w.group_start[g + 1] - w.group_start[g] + kChi2Run - 1) / kChi2Run;
+  w.chi2_terms.resize(runs);
 }
 
 // The blocks of H's upper triangle, by column block then row block (the
@@ -951,7 +963,7 @@ bool GaussNewtonProblem::MarginalCovariances(const std::vector<const double*>& w
 
 
 
-void GaussNewtonProblem::EvaluateResidual(size_t k, double* r, double* ambient, double* local) {
+double GaussNewtonProblem::EvaluateResidual(size_t k, double* r, double* ambient, double* local) {
   Workspace& w = *ws_;
   thread_local std::vector<const double*> params;
   thread_local std::vector<double*> jac;
@@ -972,15 +984,14 @@ void GaussNewtonProblem::EvaluateResidual(size_t k, double* r, double* ambient, 
   Eigen::Map<Eigen::VectorXd> rv(r, m);
   if (!EvaluateOf(res, params.data(), r, local ? jac.data() : nullptr)) {
     // No step is taken from here: the terms are zero so that H stays whole.
-    w.chi2_terms[k] = std::numeric_limits<double>::infinity();
     rv.setZero();
     if (local) std::fill(local, local + w.max_local, 0.0);
-    return;
+    return std::numeric_limits<double>::infinity();
   }
   double weight;
   const ceres::LossFunction* loss = LossOf(res);
-  w.chi2_terms[k] = RhoOf(loss, rv.squaredNorm(), &weight);
-  if (!local) return;
+  const double chi2 = RhoOf(loss, rv.squaredNorm(), &weight);
+  if (!local) return chi2;
   // Iteratively reweighted: sqrt(rho') scales residual and Jacobian.
   const double sw = std::sqrt(std::max(weight, 0.0));
   if (loss) rv *= sw;
@@ -1005,6 +1016,7 @@ void GaussNewtonProblem::EvaluateResidual(size_t k, double* r, double* ambient, 
                 w.jac_local.data() + w.jac_local_off[w.slot_start[k] + p]);
     local += m * blk.tangent;
   }
+  return chi2;
 }
 
 namespace {
@@ -1091,9 +1103,6 @@ void GaussNewtonProblem::WriteDiagonalBlocks() {
   w.damping_floor = kRelativeDampingFloor * largest;
 }
 
-// A residual's evaluation costs 1-5 us; waking the other threads for a
-// group costs about as much as a few dozen of them.
-constexpr size_t kMinResidualsPerThread = 16;
 
 double GaussNewtonProblem::Linearize(bool assemble_h) {
   const double chi2 = Evaluate();
@@ -1129,7 +1138,8 @@ void GaussNewtonProblem::EvaluateKept() {
     if (ambient.size() < w.max_ambient) ambient.resize(w.max_ambient);
     if (local.size() < w.max_local) local.resize(w.max_local);
     for (size_t k = begin; k < end; ++k)
-      EvaluateResidual(k, w.r.data() + w.residual_offset[k], ambient.data(), local.data());
+      w.chi2_terms[k] =
+          EvaluateResidual(k, w.r.data() + w.residual_offset[k], ambient.data(), local.data());
   });
   const int nvar = static_cast<int>(w.variables.size());
   pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
@@ -1153,20 +1163,28 @@ void GaussNewtonProblem::EvaluateInGroups() {
   std::fill(w.diagonal_sum.begin(), w.diagonal_sum.end(), 0.0);
   const bool assemble_h = !w.places.index.empty() || w.h_values;
   const size_t groups = w.group_start.size() - 1;
+  double* run_chi2 = w.chi2_terms.data();
   for (size_t g = 0; g < groups; ++g) {
     const int* members = w.by_group.data() + w.group_start[g];
-    pool_->ParallelFor(w.group_start[g + 1] - w.group_start[g], [&](size_t begin, size_t end) {
+    const size_t size = w.group_start[g + 1] - w.group_start[g];
+    const size_t runs = (size + kChi2Run - 1) / kChi2Run;
+    pool_->ParallelFor(runs, [&](size_t begin, size_t end) {
       thread_local std::vector<double> r, ambient, local, buffer;
       if (r.size() < static_cast<size_t>(w.max_rows)) r.resize(w.max_rows);
       if (ambient.size() < w.max_ambient) ambient.resize(w.max_ambient);
       if (local.size() < w.max_local) local.resize(w.max_local);
       const size_t square = static_cast<size_t>(w.max_tangent) * w.max_tangent;
       if (buffer.size() < square) buffer.resize(square);
-      for (size_t i = begin; i < end; ++i) {
-        EvaluateResidual(members[i], r.data(), ambient.data(), local.data());
-        AddResidualTerms(members[i], r.data(), local.data(), assemble_h, buffer.data());
+      for (size_t run = begin; run < end; ++run) {
+        double sum = 0;
+        for (size_t i = run * kChi2Run; i < std::min(size, (run + 1) * kChi2Run); ++i) {
+          sum += EvaluateResidual(members[i], r.data(), ambient.data(), local.data());
+          AddResidualTerms(members[i], r.data(), local.data(), assemble_h, buffer.data());
+        }
+        run_chi2[run] = sum;
       }
-    }, kMinResidualsPerThread);
+    }, 1);
+    run_chi2 += runs;
   }
   if (assemble_h) WriteDiagonalBlocks();
 }

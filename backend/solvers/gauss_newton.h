@@ -204,11 +204,11 @@ class GaussNewtonProblem {
   void EvaluateKept();
   void EvaluateInGroups();
   void AssembleKept();
-  // Residual k at the estimate: its values into r and its chi2 term; with
+  // Residual k at the estimate: its values into r, and its chi2 term; with
   // `local`, the local Jacobians of its variable slots there, one after
   // another (m x tangent, row-major), both scaled by the loss's sqrt(rho').
   // `ambient`: scratch.
-  void EvaluateResidual(size_t k, double* r, double* ambient, double* local);
+  double EvaluateResidual(size_t k, double* r, double* ambient, double* local);
   // b and (assemble_h) H gain residual k's terms.
   void AddResidualTerms(size_t k, const double* r, const double* local, bool assemble_h,
                         double* buffer);

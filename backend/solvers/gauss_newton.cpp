@@ -96,9 +96,14 @@ struct GaussNewtonProblem::Workspace {
   // (rho(|r|^2)) with the Jacobians kept; without, per run of kChi2Run
   // members of a group, in group order.
   std::vector<double> chi2_terms;
-  // Per variable block: the manifold's PlusJacobian (size x tangent), kept
-  // with the Jacobians (72 MB at a million 2D poses); without them each
-  // residual takes its blocks' again, in a worker's scratch.
+  // Per variable block: the manifold's PlusJacobian (size x tangent) at
+  // plus_jac_off, computed once a linearisation. Without the Jacobians kept,
+  // one of at most kRecomputedPlus doubles (2D: 3x3, 72 MB at a million
+  // poses) is not kept (offset -1): each residual takes its blocks' again,
+  // in a worker's scratch. A 3D pose's 7x6 is kept: taken again for each
+  // residual, its autodiff made a 200,000-pose solve's linearisations 1.8 s
+  // (about 40%) longer.
+  static constexpr int kRecomputedPlus = 9;
   std::vector<int> plus_jac_off;
   std::vector<double> plus_jac;
   // H's upper triangle, block by block: for block (r, c) with r <= c,
@@ -562,15 +567,16 @@ void GaussNewtonProblem::AllocateResiduals(bool keep_jacobians) {
   w.residual_rows = r_total;
   if (keep_jacobians) w.r.resize(r_total);
   w.jac_local.resize(jl_total);
-  if (!keep_jacobians) return;  // the groups size chi2_terms
-  w.chi2_terms.resize(residuals_.size());
+  if (keep_jacobians) w.chi2_terms.resize(residuals_.size());  // else the groups size it
   const int nvar = static_cast<int>(w.variables.size());
-  w.plus_jac_off.resize(nvar);
+  w.plus_jac_off.assign(nvar, -1);
   int pj_total = 0;
   for (int v = 0; v < nvar; ++v) {
-    w.plus_jac_off[v] = pj_total;
     const Block& b = blocks_[w.variables[v]];
-    pj_total += b.manifold ? b.size * b.tangent : 0;
+    const int doubles = b.size * b.tangent;
+    if (!b.manifold || (!keep_jacobians && doubles <= Workspace::kRecomputedPlus)) continue;
+    w.plus_jac_off[v] = pj_total;
+    pj_total += doubles;
   }
   w.plus_jac.resize(pj_total);
 }
@@ -999,8 +1005,9 @@ double GaussNewtonProblem::EvaluateResidual(size_t k, double* r, double* ambient
     if (!jac[p]) continue;
     const Block& blk = blocks_[rb[p]];
     if (blk.manifold) {
-      const double* plus = w.plus_jac.data() + (w.keep_jacobians ? w.plus_jac_off[blk.variable] : 0);
-      if (!w.keep_jacobians) {
+      const int kept = w.plus_jac_off[blk.variable];
+      const double* plus = w.plus_jac.data() + std::max(kept, 0);
+      if (kept < 0) {
         thread_local std::vector<double> own;
         own.resize(static_cast<size_t>(blk.size) * blk.tangent);
         blk.manifold->PlusJacobian(blk.values, own.data());
@@ -1115,13 +1122,13 @@ double GaussNewtonProblem::Evaluate() {
   Workspace& w = *ws_;
   const std::vector<int>& variables = w.variables;
   const int nvar = static_cast<int>(variables.size());
+  pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
+    for (size_t v = begin; v < end; ++v) {
+      const Block& b = blocks_[variables[v]];
+      if (w.plus_jac_off[v] >= 0) b.manifold->PlusJacobian(b.values, w.plus_jac.data() + w.plus_jac_off[v]);
+    }
+  });
   if (w.keep_jacobians) {
-    pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
-      for (size_t v = begin; v < end; ++v) {
-        const Block& b = blocks_[variables[v]];
-        if (b.manifold) b.manifold->PlusJacobian(b.values, w.plus_jac.data() + w.plus_jac_off[v]);
-      }
-    });
     EvaluateKept();
   } else {
     EvaluateInGroups();

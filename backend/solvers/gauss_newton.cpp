@@ -154,6 +154,15 @@ struct GaussNewtonProblem::Workspace {
   // in h_values, the caller's layout).
   ValuePlaces places;
   double* h_values = nullptr;
+  bool HasH() const { return !places.index.empty() || h_values; }
+  double& H(size_t k) { return places.index.empty() ? h_values[k] : places[k]; }
+  // `relative` times the largest of diagonal_saved, once that holds the
+  // undamped diagonal.
+  void SetDampingFloor(double relative) {
+    double largest = 0;
+    for (int i = 0; i < n; ++i) largest = std::max(largest, diagonal_saved[i]);
+    damping_floor = relative * largest;
+  }
   // kQR: A = [J; sqrt(lambda D)] in compressed columns, each column's
   // Jacobian entries then its damping row; for each of A's values its
   // index in jac_local (-1: the damping row), and where each column begins.
@@ -860,7 +869,6 @@ void GaussNewtonProblem::LoadJacobian() {
   Workspace& w = *ws_;
   for (size_t i = 0; i < w.r.size(); ++i) w.qr_rhs[i] = -w.r[i];
   double* a = w.qr->values();
-  double largest = 0;
   for (int c = 0; c < w.n; ++c) {
     double sum = 0;
     for (int e = w.qr_col_ptr[c]; e < w.qr_col_ptr[c + 1]; ++e) {
@@ -869,9 +877,8 @@ void GaussNewtonProblem::LoadJacobian() {
       sum += a[e] * a[e];
     }
     w.diagonal_saved[c] = sum;
-    largest = std::max(largest, sum);
   }
-  w.damping_floor = kRelativeDampingFloor * largest;
+  w.SetDampingFloor(kRelativeDampingFloor);
 }
 
 // The symbolic analysis: the previous one extended when the variables only
@@ -1046,7 +1053,6 @@ void GaussNewtonProblem::AddResidualTerms(size_t k, const double* r, const doubl
   const Residual& res = residuals_[k];
   const int m = res.m;
   const BlockList rb = BlocksOf(res);
-  const bool in_place = !w.places.index.empty();
   const int ld = w.max_tangent;
   int pair = w.pair_start.empty() ? 0 : w.pair_start[k];
   const double* jp = local;
@@ -1080,7 +1086,7 @@ void GaussNewtonProblem::AddResidualTerms(size_t k, const double* r, const doubl
       for (int j = 0; j < col.tangent; ++j) {
         const int first = w.col_start[start + j];
         for (int i = 0; i < row.tangent; ++i) {
-          double& dst = in_place ? w.places[first + i] : w.h_values[first + i];
+          double& dst = w.H(first + i);
           dst = opens ? acc(i, j) : dst + acc(i, j);
         }
       }
@@ -1092,7 +1098,6 @@ void GaussNewtonProblem::AddResidualTerms(size_t k, const double* r, const doubl
 // The diagonal blocks' sums into H, and the undamped diagonal.
 void GaussNewtonProblem::WriteDiagonalBlocks() {
   Workspace& w = *ws_;
-  const bool in_place = !w.places.index.empty();
   pool_->ParallelFor(w.variables.size(), [&](size_t begin, size_t end) {
     for (size_t v = begin; v < end; ++v) {
       const Block& b = blocks_[w.variables[v]];
@@ -1100,14 +1105,12 @@ void GaussNewtonProblem::WriteDiagonalBlocks() {
       for (int j = 0; j < b.tangent; ++j) {
         const int last = w.diagonal[b.offset + j];  // H(j, j); the column's block ends there
         for (int i = 0; i <= j; ++i, ++sum)
-          (in_place ? w.places[last - j + i] : w.h_values[last - j + i]) = *sum;
+          w.H(last - j + i) = *sum;
         w.diagonal_saved[b.offset + j] = sum[-1];
       }
     }
   });
-  double largest = 0;
-  for (int i = 0; i < w.n; ++i) largest = std::max(largest, w.diagonal_saved[i]);
-  w.damping_floor = kRelativeDampingFloor * largest;
+  w.SetDampingFloor(kRelativeDampingFloor);
 }
 
 
@@ -1138,15 +1141,30 @@ double GaussNewtonProblem::Evaluate() {
   return chi2;
 }
 
+// A worker thread's room for one residual: its values, ambient and local
+// Jacobians, and a block of H; grown once, so no allocation once iterating.
+struct GaussNewtonProblem::WorkerScratch {
+  std::vector<double> r, ambient, local, buffer;
+  static WorkerScratch& Of(const Workspace& w) {
+    thread_local WorkerScratch s;
+    auto grow = [](std::vector<double>& v, size_t n) {
+      if (v.size() < n) v.resize(n);
+    };
+    grow(s.r, static_cast<size_t>(w.max_rows));
+    grow(s.ambient, w.max_ambient);
+    grow(s.local, w.max_local);
+    grow(s.buffer, static_cast<size_t>(w.max_tangent) * w.max_tangent);
+    return s;
+  }
+};
+
 void GaussNewtonProblem::EvaluateKept() {
   Workspace& w = *ws_;
   pool_->ParallelFor(residuals_.size(), [&](size_t begin, size_t end) {
-    thread_local std::vector<double> ambient, local;
-    if (ambient.size() < w.max_ambient) ambient.resize(w.max_ambient);
-    if (local.size() < w.max_local) local.resize(w.max_local);
+    WorkerScratch& s = WorkerScratch::Of(w);
     for (size_t k = begin; k < end; ++k)
       w.chi2_terms[k] =
-          EvaluateResidual(k, w.r.data() + w.residual_offset[k], ambient.data(), local.data());
+          EvaluateResidual(k, w.r.data() + w.residual_offset[k], s.ambient.data(), s.local.data());
   });
   const int nvar = static_cast<int>(w.variables.size());
   pool_->ParallelFor(nvar, [&](size_t begin, size_t end) {
@@ -1168,7 +1186,7 @@ void GaussNewtonProblem::EvaluateInGroups() {
   Workspace& w = *ws_;
   std::fill(w.b.begin(), w.b.end(), 0.0);
   std::fill(w.diagonal_sum.begin(), w.diagonal_sum.end(), 0.0);
-  const bool assemble_h = !w.places.index.empty() || w.h_values;
+  const bool assemble_h = w.HasH();
   const size_t groups = w.group_start.size() - 1;
   double* run_chi2 = w.chi2_terms.data();
   for (size_t g = 0; g < groups; ++g) {
@@ -1176,17 +1194,12 @@ void GaussNewtonProblem::EvaluateInGroups() {
     const size_t size = w.group_start[g + 1] - w.group_start[g];
     const size_t runs = (size + kChi2Run - 1) / kChi2Run;
     pool_->ParallelFor(runs, [&](size_t begin, size_t end) {
-      thread_local std::vector<double> r, ambient, local, buffer;
-      if (r.size() < static_cast<size_t>(w.max_rows)) r.resize(w.max_rows);
-      if (ambient.size() < w.max_ambient) ambient.resize(w.max_ambient);
-      if (local.size() < w.max_local) local.resize(w.max_local);
-      const size_t square = static_cast<size_t>(w.max_tangent) * w.max_tangent;
-      if (buffer.size() < square) buffer.resize(square);
+      WorkerScratch& s = WorkerScratch::Of(w);
       for (size_t run = begin; run < end; ++run) {
         double sum = 0;
         for (size_t i = run * kChi2Run; i < std::min(size, (run + 1) * kChi2Run); ++i) {
-          sum += EvaluateResidual(members[i], r.data(), ambient.data(), local.data());
-          AddResidualTerms(members[i], r.data(), local.data(), assemble_h, buffer.data());
+          sum += EvaluateResidual(members[i], s.r.data(), s.ambient.data(), s.local.data());
+          AddResidualTerms(members[i], s.r.data(), s.local.data(), assemble_h, s.buffer.data());
         }
         run_chi2[run] = sum;
       }
@@ -1201,7 +1214,6 @@ void GaussNewtonProblem::EvaluateInGroups() {
 void GaussNewtonProblem::AssembleKept() {
   Workspace& w = *ws_;
   if (w.qr) return LoadJacobian();
-  const bool in_place = !w.places.index.empty();
   pool_->ParallelFor(w.kept_blocks.size(), [&](size_t begin, size_t end) {
     thread_local Eigen::MatrixXd buffer;
     if (buffer.rows() < w.max_tangent) buffer.resize(w.max_tangent, w.max_tangent);
@@ -1221,16 +1233,12 @@ void GaussNewtonProblem::AssembleKept() {
         const int start = w.col_start[hb.start + j];
         const int height = diag ? j + 1 : tr;
         for (int i = 0; i < height; ++i)
-          (in_place ? w.places[start + i] : w.h_values[start + i]) = acc(i, j);
+          w.H(start + i) = acc(i, j);
       }
     }
   });
-  double largest = 0;
-  for (int i = 0; i < w.n; ++i) {
-    w.diagonal_saved[i] = in_place ? w.places[w.diagonal[i]] : w.h_values[w.diagonal[i]];
-    largest = std::max(largest, w.diagonal_saved[i]);
-  }
-  w.damping_floor = kRelativeDampingFloor * largest;
+  for (int i = 0; i < w.n; ++i) w.diagonal_saved[i] = w.H(w.diagonal[i]);
+  w.SetDampingFloor(kRelativeDampingFloor);
 }
 
 void GaussNewtonProblem::SolveNormalEquations(const double* g, double* x) {
@@ -1253,11 +1261,8 @@ bool GaussNewtonProblem::SolveWithLastFactor(double* step_norm) {
 bool GaussNewtonProblem::SolveStep(double lambda, double* step_norm) {
   Workspace& w = *ws_;
   if (w.qr) return SolveStepByQR(lambda, step_norm);
-  const bool in_place = !w.places.index.empty();
-  for (int i = 0; i < w.n; ++i) {
-    const double d = w.diagonal_saved[i] + lambda * std::max(w.diagonal_saved[i], w.damping_floor);
-    (in_place ? w.places[w.diagonal[i]] : w.h_values[w.diagonal[i]]) = d;
-  }
+  for (int i = 0; i < w.n; ++i)
+    w.H(w.diagonal[i]) = w.diagonal_saved[i] + lambda * std::max(w.diagonal_saved[i], w.damping_floor);
   if (!w.cholesky->Factorize()) return false;
   w.cholesky->Solve(w.b.data(), w.dx.data());
   for (double& d : w.dx) d = -d;

@@ -142,6 +142,7 @@ class GaussNewtonProblem {
   struct Source;
   struct Workspace;
   struct HBlock;
+  struct WorkerScratch;
   struct PreviousAnalysis;
   struct SolveState;
   struct TrialStep;

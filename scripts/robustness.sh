@@ -6,10 +6,11 @@
 # --reject-outliers from the file's vertices and compared with the solution
 # of the uncorrupted file. Usage:
 #   [SEED=0] [DATASETS="2d/intel ..."] [CASES="random:0.3 grouped5:0.1"] \
-#     [EXTRA="--gnc-iterations 1"] scripts/robustness.sh [WORKDIR] [SOLVER]
+#     [EXTRA="--gnc-iterations 1"] [BIN=path/to/cairn] scripts/robustness.sh [WORKDIR] [SOLVER]
 # SEED shifts every case's seed (other seeds, same cases); a DATASETS entry
 # that is a readable .g2o path (e.g. from cairn simulate) is taken as it is;
-# EXTRA is passed to every --reject-outliers run (to try other options).
+# EXTRA is passed to every --reject-outliers run (to try other options);
+# BIN names another binary than build/cairn (an older build, to compare).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 WORK="${1:-build/robustness}"
@@ -20,7 +21,7 @@ DATASETS="${DATASETS:-2d/intel 2d/city10000 2d/manhattan 3d/sphere2500}"
 DATA=../shared/datasets/g2o
 mkdir -p "$WORK"
 # A copy: rebuilding build/ while this runs must not change the binary midway.
-cp build/cairn "$WORK/cairn"
+cp "${BIN:-build/cairn}" "$WORK/cairn"
 CAIRN="$WORK/cairn"
 : > "$WORK/runs.txt"
 path_of() { if [ -r "$1" ]; then echo "$1"; else echo "$DATA/$1.g2o"; fi; }

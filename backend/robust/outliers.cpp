@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <numeric>
 #include <set>
 #include <stdexcept>
@@ -87,6 +88,9 @@ struct RejectionState {
   // Runs (their edges in `graph`, ascending) that passed a verification at
   // the data's scale (RunThreshold).
   std::set<std::vector<size_t>> runs_passed;
+  // The last deleted-residual statistic the verification found for each run
+  // it tested (same key): the swap test's candidates.
+  std::map<std::vector<size_t>, double> run_gain;
 
   // Every inner solve goes through here, so the result covers the run.
   SolveResult Solve(PoseGraph& g, const InnerSolve& limits = {}) {
@@ -510,6 +514,7 @@ bool RejectWorstRun(RejectionState& s, double c2) {
                 edges.end());
   if (edges.empty()) return false;
   const std::vector<double> gain = GroupDeletedResidualChi2(s.inliers, edges);
+  for (size_t r = 0; r < edges.size(); ++r) s.run_gain[key(edges[r])] = gain[r];
   if (remember)
     for (size_t r = 0; r < edges.size(); ++r)
       if (!(gain[r] > static_cast<double>(edges[r].size()) * c2))
@@ -766,6 +771,132 @@ void TakeBackAllFitting(RejectionState& s) {
   }
 }
 
+bool SolveKeptToOptimum(RejectionState& s, const PoseGraph& start);
+
+// The truncated cost the rejection minimises, at `at`'s vertices: every
+// edge's chi2, a loop closure's at most c^2 (a rejected one costs c^2 unless
+// it fits).
+double TruncatedCost(const RejectionState& s, const PoseGraph& at) {
+  double cost = 0;
+  for (const Edge& e : s.graph.edges()) {
+    const double chi2 = EdgeChi2(at, e);
+    cost += e.kind == EdgeKind::kLoopClosure ? std::min(chi2, s.c2) : chi2;
+  }
+  return cost;
+}
+
+// The rejected loop closures (not those rejected with their run) whose
+// addition would raise the optimal chi2 by at most c^2 (the innovation
+// statistic, Readmit's): under the truncated cost each is cheaper in than
+// out. They come back together; returns how many.
+size_t AdmitWithinTruncation(RejectionState& s) {
+  std::vector<Edge> cand;
+  std::vector<size_t> cand_k;
+  for (size_t k = 0; k < s.graph.edges().size(); ++k)
+    if (s.rejected[k] && !s.run_out[k]) {
+      cand.push_back(s.graph.edges()[k]);
+      cand_k.push_back(k);
+    }
+  if (cand.empty()) return 0;
+  std::vector<InnovationStat> stat;
+  try {
+    stat = InnovationChi2(s.inliers, cand, s.c2);
+  } catch (const std::runtime_error&) {
+    return 0;
+  }
+  size_t back = 0;
+  for (size_t i = 0; i < cand.size(); ++i)
+    if (stat[i].chi2 <= s.c2) {
+      s.rejected[cand_k[i]] = false;
+      ++back;
+    }
+  return back;
+}
+
+// The runs (edges of s.inliers) that the verification last weighed at more
+// than half their size times c^2, the most strained per loop closure first,
+// at most `most`. Weighing every run again here cost sphere2500 4 s.
+std::vector<std::vector<size_t>> StrainedRuns(const RejectionState& s, size_t most) {
+  constexpr double kStrain = 0.5;
+  std::vector<std::pair<double, std::vector<size_t>>> strained;
+  for (std::vector<size_t>& run : RunsToTest(s, 0)) {
+    std::vector<size_t> key;
+    for (size_t e : run) key.push_back(s.origin[e]);
+    std::sort(key.begin(), key.end());
+    const auto found = s.run_gain.find(key);
+    const double size = static_cast<double>(run.size());
+    if (found != s.run_gain.end() && found->second > kStrain * size * s.c2)
+      strained.emplace_back(found->second / size, std::move(run));
+  }
+  std::stable_sort(strained.begin(), strained.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<std::vector<size_t>> runs;
+  for (size_t i = 0; i < std::min(most, strained.size()); ++i) runs.push_back(strained[i].second);
+  return runs;
+}
+
+// One swap on trial: `t` (a copy of the state) without `run`, solved from its
+// estimate and from a fresh start (the estimate is the run's bend), with the
+// rejected loop closures that are cheaper in than out taken back. Returns
+// how many came back; t.inliers then holds the solution.
+size_t TrySwap(RejectionState& t, const std::vector<size_t>& run) {
+  for (size_t k : run) {
+    const size_t g = t.origin[k];
+    t.rejected[g] = t.verified_out[g] = t.run_out[g] = true;
+  }
+  BuildInliers(t);
+  SolveKeptToOptimum(t, t.graph);
+  const size_t back = t.out.solve.usable ? AdmitWithinTruncation(t) : 0;
+  if (back > 0) SolveInliersAgain(t);
+  return back;
+}
+
+// The swap test. GNC can end in a local minimum of the truncated cost where a
+// wrong run is kept and the good loop closures it contradicts are rejected:
+// each alone costs more than c^2 against the bent graph, and deleting the run
+// alone releases less than its size times c^2 (MIT, aliased 20% in groups of
+// 5, SEED=7: 4 wrong kept, 4 good rejected, 198 m off, truncated cost 199
+// against the clean answer's 133). So a strained run is swapped out on
+// trial, and the swap stays when the whole truncated cost falls; the run is
+// then rejected whole. Returns whether one was.
+bool SwapStrainedRun(RejectionState& s) {
+  constexpr size_t kMaxTries = 3;
+  if (s.options.group_window <= 0 || !s.out.solve.usable) return false;
+  if (std::find(s.rejected.begin(), s.rejected.end(), true) == s.rejected.end()) return false;
+  const double cost = TruncatedCost(s, s.inliers);
+  for (const std::vector<size_t>& run : StrainedRuns(s, kMaxTries)) {
+    RejectionState t = s;
+    const size_t back = TrySwap(t, run);
+    const double swapped = t.out.solve.usable ? TruncatedCost(t, t.inliers) : cost;
+    const bool take = back > 0 && swapped < cost;
+    if (s.options.verbose) {
+      const Edge& e = s.inliers.edges()[run.front()];
+      std::fprintf(stderr,
+                   "swap: the run of %zu from %lld-%lld out, %zu rejected back: truncated cost "
+                   "%.6g -> %.6g: %s\n",
+                   run.size(), static_cast<long long>(e.from), static_cast<long long>(e.to), back,
+                   cost, swapped, take ? "swapped" : "kept");
+    }
+    if (!take) {  // the trial's solves still count
+      s.out.rounds = t.out.rounds;
+      s.out.iterations = t.out.iterations;
+      s.out.solve_time_s = t.out.solve_time_s;
+      continue;
+    }
+    t.out.verified += run.size();
+    s.rejected = std::move(t.rejected);
+    s.verified_out = std::move(t.verified_out);
+    s.run_out = std::move(t.run_out);
+    s.inliers = std::move(t.inliers);
+    s.kept = std::move(t.kept);
+    s.origin = std::move(t.origin);
+    s.work = std::move(t.work);
+    s.out = std::move(t.out);
+    return true;
+  }
+  return false;
+}
+
 // The kept graph to its optimum. The estimate the stages leave may sit in
 // another basin than the kept graph's own optimum (it was shaped by the loop
 // closures weighed in along the way): it is solved in full from there and
@@ -869,6 +1000,7 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
 
   if (RejectWithTheirRun(s) > 0) SolveInliersAgain(s);
   TakeBackAllFitting(s);
+  for (int pass = 0; pass < options.max_passes && SwapStrainedRun(s); ++pass) TakeBackAllFitting(s);
   // A fresh start can land the kept graph in another basin, where rejected
   // loop closures that the stages' estimate could not take fit again.
   if (options.final_solve && SolveKeptToOptimum(s, graph)) TakeBackAllFitting(s);

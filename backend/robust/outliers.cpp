@@ -1000,7 +1000,8 @@ OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolve
 
   if (RejectWithTheirRun(s) > 0) SolveInliersAgain(s);
   TakeBackAllFitting(s);
-  for (int pass = 0; pass < options.max_passes && SwapStrainedRun(s); ++pass) TakeBackAllFitting(s);
+  for (int pass = 0; pass < options.max_passes && SwapStrainedRun(s); ++pass)
+    TakeBackAllFitting(s);
   // A fresh start can land the kept graph in another basin, where rejected
   // loop closures that the stages' estimate could not take fit again.
   if (options.final_solve && SolveKeptToOptimum(s, graph)) TakeBackAllFitting(s);

@@ -153,7 +153,10 @@ using GraphSolver = std::function<SolveResult(PoseGraph& graph, const InnerSolve
 // bend the estimate together, so that deleting any one of them saves
 // little; a run whose deletion saves more than its size times c^2 goes.
 // Every rejected loop closure that fits the kept graph's solution comes
-// back, and the kept graph is solved to its optimum (final_solve). The
+// back. A kept run under strain is swapped out on trial for the rejected
+// loop closures that then cost less in than out, and the swap stays when
+// the whole truncated cost falls (GNC's answer can be a local minimum of
+// it). The kept graph is solved to its optimum (final_solve). The
 // estimate of the last solve is left in `graph`; its edges are not changed.
 OutlierRejectionResult SolveRejectingOutliers(PoseGraph& graph, const GraphSolver& solve,
                                               const OutlierRejectionOptions& options = {});

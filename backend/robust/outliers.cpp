@@ -650,6 +650,38 @@ double RunThreshold(const RejectionState& s, const std::vector<double>& stats) {
   return std::max(s.gnc_c2, TailBound(s, stats));
 }
 
+// Of the rejected loop closures `cand` (edges of s.graph), those whose
+// innovation statistic (the rise of the optimal chi2 were each added alone)
+// is within `bound` are taken back. Returns how many; 0 also when the
+// statistic cannot be computed. `report` names the stage in the lines that
+// --verbose prints, one a candidate (none when null).
+size_t TakeBackWithin(RejectionState& s, const std::vector<size_t>& cand, double bound,
+                      const char* report) {
+  std::vector<Edge> edges;
+  for (size_t k : cand) edges.push_back(s.graph.edges()[k]);
+  std::vector<InnovationStat> stat;
+  try {
+    stat = InnovationChi2(s.inliers, edges, bound);
+  } catch (const std::runtime_error& e) {
+    if (report) std::fprintf(stderr, "%s skipped: %s\n", report, e.what());
+    return 0;
+  }
+  size_t back = 0;
+  for (size_t i = 0; i < edges.size(); ++i) {
+    const bool ok = stat[i].chi2 <= bound;
+    if (report)
+      std::fprintf(stderr, "readmit? %lld-%lld chi2 %.4g innovation %s%.4g spread %.4g%s\n",
+                   static_cast<long long>(edges[i].from), static_cast<long long>(edges[i].to),
+                   EdgeChi2(s.inliers, edges[i]), stat[i].exact ? "" : "at least ", stat[i].chi2,
+                   stat[i].spread, ok ? " yes" : "");
+    if (ok) {
+      s.rejected[cand[i]] = false;
+      ++back;
+    }
+  }
+  return back;
+}
+
 // One pass of re-admission: the rejected loop closures (not rejected by the
 // verification, chi2 within readmit_reach c^2) whose innovation statistic is
 // within the larger of c^2 times the variance factor and `tail` (TailBound)
@@ -657,38 +689,15 @@ double RunThreshold(const RejectionState& s, const std::vector<double>& stats) {
 // the statistic cannot be computed.
 size_t Readmit(RejectionState& s, double tail) {
   const OutlierRejectionOptions& options = s.options;
-  std::vector<Edge> cand;
-  std::vector<size_t> cand_k;
-  for (size_t k = 0; k < s.graph.edges().size(); ++k) {
-    if (!s.rejected[k] || s.verified_out[k]) continue;
-    const double r2k = EdgeChi2(s.inliers, s.graph.edges()[k]);
-    if (!(r2k <= options.readmit_reach * s.c2)) continue;
-    cand.push_back(s.graph.edges()[k]);
-    cand_k.push_back(k);
-  }
+  std::vector<size_t> cand;
+  for (size_t k = 0; k < s.graph.edges().size(); ++k)
+    if (s.rejected[k] && !s.verified_out[k] &&
+        EdgeChi2(s.inliers, s.graph.edges()[k]) <= options.readmit_reach * s.c2)
+      cand.push_back(k);
   if (cand.empty()) return 0;
   const double factor = VarianceFactor(s);
   const double bound = std::max(tail, s.c2 * factor);
-  std::vector<InnovationStat> stat;
-  try {
-    stat = InnovationChi2(s.inliers, cand, bound);
-  } catch (const std::runtime_error& e) {
-    if (options.verbose) std::fprintf(stderr, "re-admission skipped: %s\n", e.what());
-    return 0;
-  }
-  size_t back = 0;
-  for (size_t i = 0; i < cand.size(); ++i) {
-    const bool ok = stat[i].chi2 <= bound;
-    if (options.verbose)
-      std::fprintf(stderr, "readmit? %lld-%lld chi2 %.4g innovation %s%.4g spread %.4g%s\n",
-                   static_cast<long long>(cand[i].from), static_cast<long long>(cand[i].to),
-                   EdgeChi2(s.inliers, cand[i]), stat[i].exact ? "" : "at least ", stat[i].chi2,
-                   stat[i].spread, ok ? " yes" : "");
-    if (ok) {
-      s.rejected[cand_k[i]] = false;
-      ++back;
-    }
-  }
+  const size_t back = TakeBackWithin(s, cand, bound, options.verbose ? "re-admission" : nullptr);
   if (options.verbose)
     std::fprintf(stderr, "re-admission: %zu of %zu candidates within %.4g (variance factor %.3g)\n",
                  back, cand.size(), bound, factor);
@@ -786,31 +795,14 @@ double TruncatedCost(const RejectionState& s, const PoseGraph& at) {
 }
 
 // The rejected loop closures (not those rejected with their run) whose
-// addition would raise the optimal chi2 by at most c^2 (the innovation
-// statistic, Readmit's): under the truncated cost each is cheaper in than
-// out. They come back together; returns how many.
+// addition would raise the optimal chi2 by at most c^2: under the truncated
+// cost each is cheaper in than out. They come back together; returns how
+// many.
 size_t AdmitWithinTruncation(RejectionState& s) {
-  std::vector<Edge> cand;
-  std::vector<size_t> cand_k;
+  std::vector<size_t> cand;
   for (size_t k = 0; k < s.graph.edges().size(); ++k)
-    if (s.rejected[k] && !s.run_out[k]) {
-      cand.push_back(s.graph.edges()[k]);
-      cand_k.push_back(k);
-    }
-  if (cand.empty()) return 0;
-  std::vector<InnovationStat> stat;
-  try {
-    stat = InnovationChi2(s.inliers, cand, s.c2);
-  } catch (const std::runtime_error&) {
-    return 0;
-  }
-  size_t back = 0;
-  for (size_t i = 0; i < cand.size(); ++i)
-    if (stat[i].chi2 <= s.c2) {
-      s.rejected[cand_k[i]] = false;
-      ++back;
-    }
-  return back;
+    if (s.rejected[k] && !s.run_out[k]) cand.push_back(k);
+  return cand.empty() ? 0 : TakeBackWithin(s, cand, s.c2, nullptr);
 }
 
 // The runs (edges of s.inliers) that the verification last weighed at more

@@ -24,6 +24,7 @@
 #include <algorithm>
 #include <cstring>
 #include <exception>
+#include <new>
 #include <numeric>
 #include <stdexcept>
 
@@ -31,6 +32,7 @@
 #include "cairn/linear/cholmod_common.h"
 #include "cairn/linear/parallel.h"
 #include "cairn/linear/serial_scope.h"
+#include "cairn/linear/spill_file.h"
 
 namespace cairn {
 namespace {
@@ -203,7 +205,7 @@ struct Half {
                 *ws_e = nullptr;
   std::vector<int> unknowns;  // unknown of H at each row of M_g: the half's, then T's
   // During Analyze: entry k of H goes to scatter[k] of M_g, or nowhere (-1).
-  std::vector<int> scatter;
+  std::vector<int> scatter;  // freed once from and to hold it
   std::vector<int> from, to;  // the entries that go somewhere: value from[t] of H to to[t]
   int own = 0;                // the half's own unknowns (T's follow)
   Eigen::MatrixXd d, dd;      // D_g, and D_g D_g' (lower)
@@ -254,6 +256,7 @@ struct Half {
     to.reserve(used);
     for (size_t k = 0; k < scatter.size(); ++k)
       if (scatter[k] >= 0) from.push_back(static_cast<int>(k)), to.push_back(scatter[k]);
+    std::vector<int>().swap(scatter);  // at the analysis's peak of memory: not kept twice
   }
 
   // `values`: H in the caller's layout, or null when written in place.
@@ -294,6 +297,19 @@ struct Half {
     dd.selfadjointView<Eigen::Lower>().rankUpdate(d);
   }
 
+  // Out of core, the supernodal factor's values live in a buffer the
+  // halves share: lent to this half (its factor numeric, the values
+  // whatever the buffer holds, to be factorised or read into), or taken
+  // back (null: symbolic again, as after the analysis).
+  bool Resident() const { return factor && factor->xtype != CHOLMOD_PATTERN; }
+  bool Holds(const double* buffer) const { return factor && factor->x == buffer; }
+  size_t FactorValues() const { return factor && factor->is_super ? factor->xsize : 0; }
+  void Lend(double* buffer) {
+    factor->x = buffer;
+    factor->xtype = buffer ? CHOLMOD_REAL : CHOLMOD_PATTERN;
+    factor->is_ll = 1;
+  }
+
   // Nonzeros of the half's own columns of L (the separator's are S's).
   long OwnNonZeros() const {
     if (!factor) return 0;
@@ -313,8 +329,12 @@ struct Half {
 
 class DomainCholmod final : public SparseCholesky {
  public:
-  DomainCholmod(double min_work, int threads, int nd_min_blocks)
-      : min_work_(min_work), nd_min_blocks_(nd_min_blocks), threads_(threads) {}
+  ~DomainCholmod() override { Release(); }
+  DomainCholmod(double min_work, int threads, int nd_min_blocks, double resident_bytes)
+      : min_work_(min_work),
+        nd_min_blocks_(nd_min_blocks),
+        threads_(threads),
+        resident_bytes_(resident_bytes) {}
 
   void Analyze(int n, const std::vector<int>& col_ptr, const std::vector<int>& rows,
                const std::vector<int>& block_sizes) override {
@@ -358,7 +378,7 @@ class DomainCholmod final : public SparseCholesky {
       for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k)
         if (top_index[rows[k]] >= 0 && top_index[j] >= 0)
           c_entries_.push_back({static_cast<size_t>(k), top_index[rows[k]], top_index[j]});
-    values_.assign(rows.size(), 0.0);
+    entries_ = rows.size();
     const int nt = static_cast<int>(top_.size());
     s_.setZero(nt, nt);
     x_top_.setZero(nt);
@@ -379,10 +399,16 @@ class DomainCholmod final : public SparseCholesky {
     for (const std::exception_ptr& e : failed)
       if (e) std::rethrow_exception(e);
     // The cut is a separator: every entry of H lies in one half or in C.
+    std::vector<bool> placed(rows.size(), false);
+    for (const Half& h : half_)
+      for (int k : h.from) placed[k] = true;
     for (size_t k = 0; k < rows.size(); ++k)
-      if (half_[0].scatter[k] < 0 && half_[1].scatter[k] < 0)
+      if (!placed[k])
         throw std::logic_error("domain Cholesky: the cut is not a separator");
-    for (Half& h : half_) std::vector<int>().swap(h.scatter);  // from and to say it now
+    if (OverBudget(pattern)) {
+      spill_ = std::make_unique<SpillFile>();
+      if (!spill_->ok()) spill_.reset();  // no room on disk: all in memory, as before
+    }
   }
 
   // A graph of at most kLittleWorkMaxBlocks blocks whose factor in AMD's
@@ -435,7 +461,12 @@ class DomainCholmod final : public SparseCholesky {
     return false;
   }
 
-  double* values() override { return whole_ ? whole_->values() : values_.data(); }
+  // Made at the first call: a caller that writes in place never needs it.
+  double* values() override {
+    if (whole_) return whole_->values();
+    if (!in_place_ && values_.size() != entries_) values_.assign(entries_, 0.0);
+    return values_.data();
+  }
 
   // Each entry goes to the half that holds it; C's, which both halves
   // hold, to the first half's, copied to the second's at each Factorize.
@@ -443,7 +474,7 @@ class DomainCholmod final : public SparseCholesky {
     if (whole_) return whole_->TakeValuesInPlace(places);
     if (in_place_ || !half_[0].m || !half_[1].m) return false;  // taken already, or none
     constexpr uint32_t kNowhere = 0xffffffffu;
-    places->index.assign(values_.size(), kNowhere);
+    places->index.assign(entries_, kNowhere);
     auto place = [&](int g) {
       const Half& h = half_[g];
       places->arrays[g] = static_cast<double*>(h.m->x);
@@ -467,17 +498,21 @@ class DomainCholmod final : public SparseCholesky {
 
   bool Factorize() override {
     if (whole_) return whole_->Factorize();
-    const double* values = in_place_ ? nullptr : values_.data();
+    const double* values = in_place_ ? nullptr : this->values();
     if (in_place_) {
       const double* first = static_cast<const double*>(half_[0].m->x);
       double* second = static_cast<double*>(half_[1].m->x);
       for (size_t c = 0; c < c_entries_.size(); ++c) second[c_second_[c]] = first[c_entries_[c].k];
     }
     SerialLinearAlgebraScope serial;
-    pool_->ParallelFor(2, [&](size_t begin, size_t end) {
-      SerialLinearAlgebraScope serial_here;  // OpenMP's setting is per thread
-      for (size_t g = begin; g < end; ++g) half_[g].Factorize(values);
-    }, 1);
+    if (spill_) {
+      if (!FactorizeOutOfCore(values)) return false;
+    } else {
+      pool_->ParallelFor(2, [&](size_t begin, size_t end) {
+        SerialLinearAlgebraScope serial_here;  // OpenMP's setting is per thread
+        for (size_t g = begin; g < end; ++g) half_[g].Factorize(values);
+      }, 1);
+    }
     if (!half_[0].ok || !half_[1].ok) return false;
     if (top_.empty()) return true;
     s_ = half_[0].dd + half_[1].dd;
@@ -490,40 +525,17 @@ class DomainCholmod final : public SparseCholesky {
 
   void Solve(const double* b, double* x) override {
     if (whole_) return whole_->Solve(b, x);
-    const int nt = static_cast<int>(top_.size());
     SerialLinearAlgebraScope serial;
+    if (spill_) return SolveOutOfCore(b, x);
     pool_->ParallelFor(2, [&](size_t begin, size_t end) {
       SerialLinearAlgebraScope serial_here;
-      for (size_t g = begin; g < end; ++g) {
-        Half& h = half_[g];
-        double* r = static_cast<double*>(h.rhs->x);
-        for (int t = 0; t < h.own; ++t) r[t] = b[h.unknowns[t]];
-        std::fill(r + h.own, r + h.own + nt, 0.0);
-        cholmod_solve2(CHOLMOD_L, h.factor, h.rhs, nullptr, &h.forward, nullptr, &h.ws_y, &h.ws_e,
-                       h.common.get());
-        const Eigen::Map<const Eigen::VectorXd> y_top(
-            static_cast<const double*>(h.forward->x) + h.own, nt);
-        through_[g].noalias() = h.d.triangularView<Eigen::Lower>() * y_top;
-      }
+      for (size_t g = begin; g < end; ++g) Forward(static_cast<int>(g), b);
     }, 1);
-    // through_[g] = -B_g' A_g^-1 b_g
-    for (int t = 0; t < nt; ++t) x_top_[t] = b[top_[t]] + through_[0][t] + through_[1][t];
-    if (nt > 0) schur_.solveInPlace(x_top_);
+    SolveSeparator(b, x);
     pool_->ParallelFor(2, [&](size_t begin, size_t end) {
       SerialLinearAlgebraScope serial_here;
-      for (size_t g = begin; g < end; ++g) {
-        Half& h = half_[g];
-        double* r = static_cast<double*>(h.rhs->x);
-        std::memcpy(r, h.forward->x, sizeof(double) * h.own);
-        Eigen::Map<Eigen::VectorXd>(r + h.own, nt).noalias() =
-            h.d.transpose().triangularView<Eigen::Upper>() * x_top_;
-        cholmod_solve2(CHOLMOD_Lt, h.factor, h.rhs, nullptr, &h.backward, nullptr, &h.ws_y,
-                       &h.ws_e, h.common.get());
-        const double* z = static_cast<const double*>(h.backward->x);
-        for (int t = 0; t < h.own; ++t) x[h.unknowns[t]] = z[t];
-      }
+      for (size_t g = begin; g < end; ++g) Backward(static_cast<int>(g), x);
     }, 1);
-    for (int t = 0; t < nt; ++t) x[top_[t]] = x_top_[t];
   }
 
   long FactorNonZeros() const override {
@@ -539,8 +551,12 @@ class DomainCholmod final : public SparseCholesky {
     // An empty problem is never analysed: nothing to factorise.
     if (!half_[0].factor || !half_[1].factor) return "not analysed";
     auto method = [](const Half& h) { return h.factor->is_super ? "supernodal" : "simplicial"; };
-    return std::string("two halves at once (") + method(half_[0]) + ", " + method(half_[1]) +
-           "), " + std::to_string(top_.size()) + " separator unknowns";
+    return std::string(spill_ ? "two halves one at a time (" : "two halves at once (") +
+           method(half_[0]) + ", " + method(half_[1]) + "), " + std::to_string(top_.size()) +
+           " separator unknowns" +
+           (spill_ ? ", factors " + std::to_string(FactorBytes() >> 20) +
+                         " MiB, the idle half's kept on disk in " + spill_->dir()
+                   : "");
   }
 
   void SetBlockOrdering(const std::vector<int>& block_perm) override { given_ = block_perm; }
@@ -554,7 +570,134 @@ class DomainCholmod final : public SparseCholesky {
     int i, j;
   };
 
+  // L_g y_g = [b_g; 0], and through_[g] = -B_g' A_g^-1 b_g from y_g's last part.
+  void Forward(int g, const double* b) {
+    Half& h = half_[g];
+    const int nt = static_cast<int>(top_.size());
+    double* r = static_cast<double*>(h.rhs->x);
+    for (int t = 0; t < h.own; ++t) r[t] = b[h.unknowns[t]];
+    std::fill(r + h.own, r + h.own + nt, 0.0);
+    cholmod_solve2(CHOLMOD_L, h.factor, h.rhs, nullptr, &h.forward, nullptr, &h.ws_y, &h.ws_e,
+                   h.common.get());
+    const Eigen::Map<const Eigen::VectorXd> y_top(static_cast<const double*>(h.forward->x) + h.own,
+                                                  nt);
+    through_[g].noalias() = h.d.triangularView<Eigen::Lower>() * y_top;
+  }
+
+  void SolveSeparator(const double* b, double* x) {
+    const int nt = static_cast<int>(top_.size());
+    for (int t = 0; t < nt; ++t) x_top_[t] = b[top_[t]] + through_[0][t] + through_[1][t];
+    if (nt > 0) schur_.solveInPlace(x_top_);
+    for (int t = 0; t < nt; ++t) x[top_[t]] = x_top_[t];
+  }
+
+  // L_g' z = [y_g; D_g' x_T].
+  void Backward(int g, double* x) {
+    Half& h = half_[g];
+    const int nt = static_cast<int>(top_.size());
+    double* r = static_cast<double*>(h.rhs->x);
+    std::memcpy(r, h.forward->x, sizeof(double) * h.own);
+    Eigen::Map<Eigen::VectorXd>(r + h.own, nt).noalias() =
+        h.d.transpose().triangularView<Eigen::Upper>() * x_top_;
+    cholmod_solve2(CHOLMOD_Lt, h.factor, h.rhs, nullptr, &h.backward, nullptr, &h.ws_y, &h.ws_e,
+                   h.common.get());
+    const double* z = static_cast<const double*>(h.backward->x);
+    for (int t = 0; t < h.own; ++t) x[h.unknowns[t]] = z[t];
+  }
+
+  // Out of core (spill_): at most one half's numeric factor in memory, in
+  // one buffer that the halves take in turn (made once: fresh memory costs
+  // a page fault per page, every time). The first half is factorised and
+  // parked on disk before the second is made; a solve runs forward through
+  // the one in memory, parks it, and reads the other back for its whole
+  // solve. When a factor cannot be parked (a full disk), both stay in
+  // memory from then on: more memory, the same answer.
+  bool FactorizeOutOfCore(const double* values) {
+    parked_[0] = parked_[1] = false;  // what is on disk is an old factor now
+    if (!buffer_) {
+      buffer_size_ = std::max(half_[0].FactorValues(), half_[1].FactorValues());
+      buffer_ = static_cast<double*>(
+          cholmod_malloc(buffer_size_, sizeof(double), half_[0].common.get()));
+      if (!buffer_) throw std::bad_alloc();
+    }
+    if (half_[1].Holds(buffer_)) half_[1].Lend(nullptr);
+    half_[0].Lend(buffer_);
+    half_[0].Factorize(values);
+    if (!half_[0].ok) return false;
+    Park(0);
+    if (spill_) half_[1].Lend(buffer_);  // else CHOLMOD gives it its own
+    half_[1].Factorize(values);
+    return half_[1].ok;
+  }
+
+  void SolveOutOfCore(const double* b, double* x) {
+    const int first = half_[1].Resident() ? 1 : 0, second = 1 - first;
+    Forward(first, b);
+    Park(first);
+    Fetch(second);
+    Forward(second, b);
+    SolveSeparator(b, x);
+    Backward(second, x);
+    Park(second);
+    Fetch(first);
+    Backward(first, x);
+  }
+
+  size_t SpillOffset(int g) const { return g == 0 ? 0 : half_[0].FactorValues() * sizeof(double); }
+
+  void Park(int g) {
+    Half& h = half_[g];
+    if (!spill_ || !h.Resident()) return;
+    if (!parked_[g])
+      parked_[g] = spill_->Write(SpillOffset(g), static_cast<const double*>(h.factor->x),
+                                 h.FactorValues());
+    if (parked_[g]) return h.Lend(nullptr);
+    // No room on disk: the other half, if parked, back into memory of its own.
+    Half& other = half_[1 - g];
+    if (!other.Resident() && parked_[1 - g]) {
+      if (!cholmod_change_factor(CHOLMOD_REAL, 1, 1, 1, 1, other.factor, other.common.get()))
+        throw std::runtime_error("out of memory for a factor that could not be parked on disk");
+      Read(1 - g);
+    }
+    spill_.reset();
+  }
+
+  void Fetch(int g) {
+    if (!spill_ || half_[g].Resident()) return;
+    half_[g].Lend(buffer_);
+    Read(g);
+  }
+
+  void Read(int g) {
+    Half& h = half_[g];
+    if (!parked_[g] || !spill_->Read(SpillOffset(g), static_cast<double*>(h.factor->x),
+                                     h.FactorValues()))
+      throw std::runtime_error("cannot read a factor back from its temporary file in " +
+                               spill_->dir());
+  }
+
+  size_t FactorBytes() const {
+    return sizeof(double) * (half_[0].FactorValues() + half_[1].FactorValues());
+  }
+
+  // Both halves' numeric factors over what the graph may hold in memory:
+  // kResidentBytesPerPair for each pair of blocks that H joins (each
+  // edge's), and at least kResidentFloorBytes.
+  bool OverBudget(const BlockPattern& pattern) const {
+    if (!half_[0].FactorValues() || !half_[1].FactorValues()) return false;
+    const double bytes = static_cast<double>(FactorBytes());
+    if (resident_bytes_ >= 0) return bytes > resident_bytes_;
+    const double pairs = static_cast<double>(pattern.bi.size()) - pattern.blocks();
+    return bytes > std::max(kResidentFloorBytes, kResidentBytesPerPair * pairs);
+  }
+
   void Release() {
+    for (Half& h : half_)
+      if (buffer_ && h.Holds(buffer_)) h.Lend(nullptr);
+    if (buffer_) cholmod_free(buffer_size_, sizeof(double), buffer_, half_[0].common.get());
+    buffer_ = nullptr;
+    spill_.reset();
+    parked_[0] = parked_[1] = false;
     in_place_ = false;
     c_second_.clear();
     whole_.reset();
@@ -568,6 +711,7 @@ class DomainCholmod final : public SparseCholesky {
     top_.clear();
     c_entries_.clear();
     values_.clear();
+    entries_ = 0;
   }
 
   // One CHOLMOD factorisation of the whole, in the given order if any.
@@ -581,6 +725,11 @@ class DomainCholmod final : public SparseCholesky {
   const double min_work_;
   const int nd_min_blocks_;
   const int threads_;
+  const double resident_bytes_;  // negative: OverBudget's rule
+  std::unique_ptr<SpillFile> spill_;  // out of core, when the factors outgrow the graph
+  bool parked_[2] = {false, false};   // the current factor of each half is on disk
+  double* buffer_ = nullptr;          // out of core: the one numeric factor in memory
+  size_t buffer_size_ = 0;            // its doubles, as many as the larger half's
   std::unique_ptr<ThreadPool> pool_;  // made at the first split
   std::unique_ptr<SparseCholesky> whole_;  // when not split
   std::vector<int> given_, used_;
@@ -590,6 +739,7 @@ class DomainCholmod final : public SparseCholesky {
   std::vector<int> c_second_;  // in place: where each of c_entries_ lies in the second half
   bool in_place_ = false;
   std::vector<double> values_;    // H's values, as the caller writes them
+  size_t entries_ = 0;            // H's entries
   Eigen::MatrixXd s_;                   // S, lower triangle
   Eigen::LLT<Eigen::MatrixXd, Eigen::Lower> schur_;
   Eigen::VectorXd through_[2], x_top_;  // solve workspace
@@ -598,10 +748,12 @@ class DomainCholmod final : public SparseCholesky {
 }  // namespace
 
 std::unique_ptr<SparseCholesky> CreateDomainCholesky(double min_work, int threads,
-                                                     int nested_dissection_min_blocks) {
+                                                     int nested_dissection_min_blocks,
+                                                     double resident_factor_bytes) {
   return std::make_unique<DomainCholmod>(
       min_work, std::max(1, std::min(threads, 2)),
-      nested_dissection_min_blocks < 0 ? kNestedDissectionMinBlocks : nested_dissection_min_blocks);
+      nested_dissection_min_blocks < 0 ? kNestedDissectionMinBlocks : nested_dissection_min_blocks,
+      resident_factor_bytes);
 }
 
 }  // namespace cairn

@@ -23,8 +23,23 @@ constexpr double kMinWorkToSplit = 2e7;
 // Graphs of `nested_dissection_min_blocks` blocks or more have their
 // halves ordered by nested dissection too (-1: kNestedDissectionMinBlocks,
 // block_ordering.h).
+//
+// Out of core: when the halves' two numeric factors would take more than
+// `resident_factor_bytes` (negative: the larger of kResidentFloorBytes and
+// kResidentBytesPerPair for each pair of blocks H joins), they are
+// factorised one after the other and only one is held in memory at a time,
+// the other in an unnamed temporary file (spill_file.h). Same arithmetic,
+// the same result to the last bit; slower (one core, and the file's reads).
 std::unique_ptr<SparseCholesky> CreateDomainCholesky(double min_work = kMinWorkToSplit,
                                                      int threads = 2,
-                                                     int nested_dissection_min_blocks = -1);
+                                                     int nested_dissection_min_blocks = -1,
+                                                     double resident_factor_bytes = -1);
+
+// A pose graph's solve holds, besides the factor, about 1.5 KB an edge (H,
+// the graph, the vectors, the Jacobians): so the factor may hold as much
+// again and the whole stays within 3 KB an edge (docs/robustness.md, "Where
+// the 3D solve's memory goes"). Below the floor, memory is no concern.
+constexpr double kResidentBytesPerPair = 1536;
+constexpr double kResidentFloorBytes = 256.0 * 1024 * 1024;
 
 }  // namespace cairn

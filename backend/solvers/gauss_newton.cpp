@@ -171,6 +171,7 @@ struct GaussNewtonProblem::Workspace {
   std::vector<double> qr_rhs;
   std::vector<int> variables;  // non-constant blocks, in H's order
   CholeskyKind linear_solver = CholeskyKind::kAuto;
+  double factor_memory_bytes = -1;  // GaussNewtonOptions::factor_memory_bytes
   int n = 0;
   int max_tangent = 1, max_size = 1;
   size_t max_arity = 1;
@@ -283,10 +284,13 @@ GaussNewtonProblem::BlockList GaussNewtonProblem::BlocksOf(const Residual& r) co
 namespace {
 
 // The caller's choice made concrete, for a solver of `threads` threads.
-std::unique_ptr<SparseCholesky> CreateFactorization(CholeskyKind kind, int threads) {
+std::unique_ptr<SparseCholesky> CreateFactorization(CholeskyKind kind, int threads,
+                                                    double factor_memory_bytes) {
   switch (kind) {
-    case CholeskyKind::kAuto: return CreateFactorization(ResolveCholeskyKind(kind, threads), threads);
-    case CholeskyKind::kTwoHalves: return CreateDomainCholesky(kMinWorkToSplit, threads);
+    case CholeskyKind::kAuto:
+      return CreateFactorization(ResolveCholeskyKind(kind, threads), threads, factor_memory_bytes);
+    case CholeskyKind::kTwoHalves:
+      return CreateDomainCholesky(kMinWorkToSplit, threads, -1, factor_memory_bytes);
     case CholeskyKind::kSupernodal: return SparseCholesky::Create(Factorization::kSupernodal);
     case CholeskyKind::kSimplicial: return SparseCholesky::Create(Factorization::kSimplicial);
     case CholeskyKind::kSupernodalOrSimplicial:
@@ -477,6 +481,7 @@ void GaussNewtonProblem::Prepare(const GaussNewtonOptions& options) {
 
   NumberVariables();
   w.linear_solver = ResolveCholeskyKind(options.linear_solver, pool_->size());
+  w.factor_memory_bytes = options.factor_memory_bytes;
   const bool qr = w.linear_solver == CholeskyKind::kQR;
   w.keep_jacobians = qr || LocalJacobianDoubles() * sizeof(double) <= options.max_kept_jacobian_bytes;
   AllocateResiduals(w.keep_jacobians);
@@ -901,7 +906,7 @@ void GaussNewtonProblem::AnalyzePattern(PreviousAnalysis* previous, const std::v
     return;
   }
   kept.reset();
-  w.cholesky = CreateFactorization(w.linear_solver, pool_->size());
+  w.cholesky = CreateFactorization(w.linear_solver, pool_->size(), w.factor_memory_bytes);
   if (!ordering_hint_.empty()) {
     w.cholesky->SetBlockOrdering(HintedOrdering());
     ordering_hint_.clear();

@@ -48,6 +48,11 @@ struct GaussNewtonOptions : SolverOptions {
   // 3D edges) the memory counts for more: the Jacobians of a million 2D
   // poses are 225 MB.
   size_t max_kept_jacobian_bytes = size_t{64} << 20;
+  // The most the two-halves factorisation's numeric factors may hold in
+  // memory, in bytes; beyond, one half's is kept on disk while the other
+  // works (one core, same result). Negative: about 1.5 KB an edge, at least
+  // 256 MB (domain_cholesky.h); infinity: always in memory.
+  double factor_memory_bytes = -1;
 
   // SolverOptions::IsValid, and a damping that is a number >= 0.
   bool IsValid(std::string* error) const;

@@ -45,6 +45,7 @@ bool CeresOptions::IsValid(std::string* error) const {
 bool GaussNewtonOptions::IsValid(std::string* error) const {
   if (!SolverOptions::IsValid(error)) return false;
   if (!NonNegative(damping)) return Fail(error, "damping must be a number >= 0");
+  if (std::isnan(factor_memory_bytes)) return Fail(error, "factor_memory_bytes must be a number");
   return true;
 }
 

@@ -2,6 +2,7 @@
 // matrix keeps its ordering, two halves at once solve exactly and refuse an
 // indefinite matrix, and the serial linear-algebra scope.
 #include <dlfcn.h>
+#include <sys/resource.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -9,6 +10,7 @@
 #include <memory>
 #include <string>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <utility>
 #include <vector>
@@ -37,8 +39,9 @@ struct BlockMatrix {
       a.block<3, 3>(3 * i, 3 * j) = c;
       a.block<3, 3>(3 * j, 3 * i) = c.transpose();
     }
-    // Diagonally dominant, hence positive definite.
-    for (int k = 0; k < n; ++k) a(k, k) = a.row(k).cwiseAbs().sum() + 1.0;
+    // Diagonally dominant, hence positive definite. (Summed by columns, which
+    // are the rows of a symmetric matrix: a row's stride missed the cache.)
+    for (int k = 0; k < n; ++k) a(k, k) = a.col(k).cwiseAbs().sum() + 1.0;
     return a;
   }
   // The pattern: full blocks, upper triangle only, rows sorted.
@@ -286,6 +289,87 @@ TEST_P(TwoHalves, ValuesWrittenInPlaceSolveAsTheirCopy) {
   EXPECT_LT(
       (SolveWith(by_place, g, grown_ptr, grown_rows, gb, &places) - g.ldlt().solve(gb)).norm(),
       1e-9);
+}
+
+// Out of core (the halves' factors over the memory they are allowed), one
+// factor in memory at a time and the other parked in a temporary file: the
+// same arithmetic, so the same solution to the last bit as in memory, for
+// a second solve with the same factor (a chord step), new values, and
+// values written in place. Simplicial halves are never parked.
+TEST_P(TwoHalves, OutOfCoreSolvesAsInMemory) {
+  const bool dense = GetParam();
+  const BlockMatrix m = dense ? DenseGrid(24) : Grid(24);
+  std::vector<int> col_ptr, rows;
+  m.Pattern(&col_ptr, &rows);
+  const std::vector<int> sizes(m.blocks, 3);
+  auto in_memory = CreateDomainCholesky(0, 2, -1);
+  auto out_of_core = CreateDomainCholesky(0, 2, -1, /*resident_factor_bytes=*/0);
+  in_memory->Analyze(3 * m.blocks, col_ptr, rows, sizes);
+  out_of_core->Analyze(3 * m.blocks, col_ptr, rows, sizes);
+  EXPECT_EQ(in_memory->Method().find("on disk"), std::string::npos) << in_memory->Method();
+  EXPECT_EQ(out_of_core->Method().find("one at a time") != std::string::npos, dense)
+      << out_of_core->Method();
+  const Eigen::MatrixXd a = m.Dense(12), a2 = m.Dense(13);
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(a.rows(), -1, 2);
+  const Eigen::VectorXd x = SolveWith(*in_memory, a, col_ptr, rows, b);
+  EXPECT_LT((x - a.llt().solve(b)).norm(), 1e-10 * x.norm());
+  EXPECT_EQ(SolveWith(*out_of_core, a, col_ptr, rows, b), x);
+  const Eigen::VectorXd b2 = Eigen::VectorXd::LinSpaced(a.rows(), 3, -1);
+  Eigen::VectorXd again(b.size()), expected(b.size());
+  in_memory->Solve(b2.data(), expected.data());
+  out_of_core->Solve(b2.data(), again.data());
+  EXPECT_EQ(again, expected);
+  out_of_core->Solve(b.data(), again.data());  // the other half in memory now
+  EXPECT_EQ(again, x);
+  EXPECT_EQ(SolveWith(*out_of_core, a2, col_ptr, rows, b),
+            SolveWith(*in_memory, a2, col_ptr, rows, b));
+  ValuePlaces places;
+  ASSERT_TRUE(out_of_core->TakeValuesInPlace(&places));
+  EXPECT_EQ(SolveWith(*out_of_core, a, col_ptr, rows, b, &places), x);
+}
+
+// With no room on disk for the parked factor, both stay in memory.
+TEST(SparseCholesky, TwoHalvesStayInMemoryWithoutASpillDirectory) {
+  const BlockMatrix m = DenseGrid(24);
+  std::vector<int> col_ptr, rows;
+  m.Pattern(&col_ptr, &rows);
+  const char* saved = std::getenv("TMPDIR");
+  const std::string kept = saved ? saved : "";
+  setenv("TMPDIR", "/nonexistent-cairn-spill-dir", 1);
+  auto chol = CreateDomainCholesky(0, 2, -1, 0);
+  chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
+  if (saved) setenv("TMPDIR", kept.c_str(), 1); else unsetenv("TMPDIR");
+  EXPECT_NE(chol->Method().find("two halves at once"), std::string::npos) << chol->Method();
+  const Eigen::MatrixXd a = m.Dense(14);
+  const Eigen::VectorXd b = Eigen::VectorXd::Ones(a.rows());
+  EXPECT_LT((SolveWith(*chol, a, col_ptr, rows, b) - a.llt().solve(b)).norm(), 1e-9);
+}
+
+// A disk that fills up (here: a limit on the size of files this process
+// writes) while a factor is parked: both halves stay in memory from then
+// on, and every solve is still exact.
+TEST(SparseCholesky, TwoHalvesStayInMemoryWhenTheDiskIsFull) {
+  const BlockMatrix m = DenseGrid(24);
+  std::vector<int> col_ptr, rows;
+  m.Pattern(&col_ptr, &rows);
+  auto chol = CreateDomainCholesky(0, 2, -1, 0);
+  chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
+  ASSERT_NE(chol->Method().find("one at a time"), std::string::npos) << chol->Method();
+  rlimit saved{};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &saved), 0);
+  rlimit small = saved;
+  small.rlim_cur = 4096;  // smaller than either half's factor
+  void (*handler)(int) = std::signal(SIGXFSZ, SIG_IGN);
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+  const Eigen::MatrixXd a = m.Dense(15), a2 = m.Dense(16);
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(a.rows(), -1, 1);
+  const Eigen::VectorXd x = SolveWith(*chol, a, col_ptr, rows, b);
+  const Eigen::VectorXd x2 = SolveWith(*chol, a2, col_ptr, rows, b);
+  setrlimit(RLIMIT_FSIZE, &saved);
+  std::signal(SIGXFSZ, handler);
+  EXPECT_LT((x - a.llt().solve(b)).norm(), 1e-9);
+  EXPECT_LT((x2 - a2.llt().solve(b)).norm(), 1e-9);
+  EXPECT_NE(chol->Method().find("two halves at once"), std::string::npos) << chol->Method();
 }
 
 INSTANTIATE_TEST_SUITE_P(SparseCholesky, TwoHalves, ::testing::Bool(),

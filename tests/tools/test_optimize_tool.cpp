@@ -173,13 +173,44 @@ TEST(OptimizeTool, BadInputNamesFileAndLine) {
 
 TEST(OptimizeTool, RejectsBadOptions) {
   for (const char* args : {"--robust tukey:1", "--solver nope", "--method newton",
-                           "--sparse mkl", "--max-iterations -1", "--linear-solver mkl"}) {
+                           "--sparse mkl", "--max-iterations -1", "--linear-solver mkl",
+                           "--gn-factor-memory lots", "--gn-factor-memory -1"}) {
     int status = 0;
     const std::string out = testing::RunCommand(
         Tool() + " optimize in.g2o -o out.g2o " + args + " 2>&1", &status);
     EXPECT_EQ(status, 2) << args << ": " << out;
     EXPECT_EQ(out.rfind("cairn: ", 0), 0u) << out;
   }
+}
+
+// --gn-factor-memory: a graph whose factor is kept half on disk (here: any
+// size over 0 MB) is solved to the very same graph as in memory, and the
+// report says which way it went.
+TEST(OptimizeTool, FactorHalfOnDiskWritesTheSameGraph) {
+  Simulation sim = Simulated(3, 2000);
+  const std::string dir = cairn::testing::TempDir();
+  const std::string in = dir + "/cairn_spill_in.g2o";
+  WriteG2o(sim.noisy, in);
+  std::string graphs[2], reports[2];
+  const char* limits[2] = {"unlimited", "0"};
+  for (int k = 0; k < 2; ++k) {
+    const std::string out = dir + "/cairn_spill_out" + std::to_string(k) + ".g2o";
+    const std::string report = out + ".json";
+    int status = -1;
+    const std::string log = testing::RunCommand(
+        "TMPDIR='" + dir + "' " + Tool() + " optimize --solver gn --quiet --gn-factor-memory " +
+            limits[k] + " '" + in + "' -o '" + out + "' --report '" + report + "' 2>&1",
+        &status);
+    ASSERT_EQ(status, 0) << log;
+    std::ifstream g(out), r(report);
+    graphs[k].assign(std::istreambuf_iterator<char>(g), std::istreambuf_iterator<char>());
+    reports[k].assign(std::istreambuf_iterator<char>(r), std::istreambuf_iterator<char>());
+  }
+  ASSERT_NE(reports[0].find("two halves at once"), std::string::npos) << reports[0];
+  EXPECT_NE(reports[1].find("two halves one at a time"), std::string::npos) << reports[1];
+  EXPECT_NE(reports[1].find("kept on disk in " + dir), std::string::npos) << reports[1];
+  EXPECT_FALSE(graphs[0].empty());
+  EXPECT_EQ(graphs[0], graphs[1]);
 }
 
 TEST(OptimizeTool, HelpDescribesEveryOption) {

@@ -44,6 +44,7 @@ double TimeToReach(const SolveResult& r, double chi2) {
 struct CompareArgs {
   std::string path, json, robust = "none", linear_solver = "auto", sparse = "auto", init = "auto";
   bool quiet = false, no_chord = false;
+  std::string factor_memory = "auto";
   double tol_m = 1e-4, tol_deg = 1e-3, tol_chi2 = 1e-6;
   SolverOptions common;
   double damping = GaussNewtonOptions().damping;
@@ -86,6 +87,9 @@ void DeclareOptions(ArgParser& args, CompareArgs& a) {
               "chordal (chordal relaxation of the rotations, then linear translations)");
   args.Flag("gn-no-chord", &a.no_chord,
             "gn: factorise at every step (no steps with an earlier factorisation)");
+  args.Option("gn-factor-memory", &a.factor_memory, "MB",
+              "gn: the most the two-halves factorisation's factors may hold in memory (auto, "
+              "unlimited or MB; as in optimize)");
   args.Flag("quiet", &a.quiet, "no per-iteration progress lines");
   args.Option("repeat", &a.repeat, "N",
               "solve N times with each solver, alternating which goes first, and report each "
@@ -103,6 +107,7 @@ bool MakeOptions(CompareArgs& a, CeresOptions* co, GaussNewtonOptions* go) {
   go->linear_solver = ParseCholeskyKind(a.linear_solver);
   go->damping = a.damping;
   go->reuse_factorization = !a.no_chord;
+  go->factor_memory_bytes = ParseFactorMemory(a.factor_memory);
   std::string why;
   if (!co->IsValid(&why) || !go->IsValid(&why)) {
     PrintError(why);

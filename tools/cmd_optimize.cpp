@@ -1,9 +1,5 @@
 // cairn optimize: read a pose graph, optimise it, write it as g2o.
 #include <chrono>
-#include <cmath>
-#include <cstdlib>
-#include <limits>
-#include <stdexcept>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -33,18 +29,6 @@ std::string Number(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.10g", v);
   return buf;
-}
-
-// --gn-factor-memory: auto (-1), unlimited (infinity) or megabytes, in bytes.
-double ParseFactorMemory(const std::string& text) {
-  if (text == "auto") return -1;
-  if (text == "unlimited") return std::numeric_limits<double>::infinity();
-  char* end = nullptr;
-  const double mb = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end != '\0' || !(mb >= 0) || !std::isfinite(mb))
-    throw std::invalid_argument("--gn-factor-memory: expected auto, unlimited or a number of MB >= 0, got '" +
-                                text + "'");
-  return mb * 1024 * 1024;
 }
 
 // What the command line says, before it is turned into the solvers' options.

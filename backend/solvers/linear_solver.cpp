@@ -1,8 +1,22 @@
 #include "cairn/solvers/linear_solver.h"
 
+#include <cmath>
+#include <cstdlib>
+#include <limits>
 #include <stdexcept>
 
 namespace cairn {
+
+double ParseFactorMemory(const std::string& text) {
+  if (text == "auto") return -1;
+  if (text == "unlimited") return std::numeric_limits<double>::infinity();
+  char* end = nullptr;
+  const double mb = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !(mb >= 0) || !std::isfinite(mb))
+    throw std::invalid_argument("--gn-factor-memory: expected auto, unlimited or a number of MB >= 0, "
+                                "got '" + text + "'");
+  return mb * 1024 * 1024;
+}
 
 CholeskyKind ParseCholeskyKind(const std::string& name) {
   if (name == "auto") return CholeskyKind::kAuto;

@@ -31,6 +31,11 @@ enum class CholeskyKind {
 CholeskyKind ParseCholeskyKind(const std::string& name);
 const char* ToString(CholeskyKind kind);
 
+// `--gn-factor-memory`: "auto" (-1), "unlimited" (infinity) or a number of
+// MB >= 0, as bytes (GaussNewtonOptions::factor_memory_bytes); throws
+// std::invalid_argument for anything else.
+double ParseFactorMemory(const std::string& text);
+
 // kAuto made concrete: kTwoHalves, whatever the thread count. It splits a
 // large graph in two halves (factorised at once with two or more threads,
 // one after the other with one) and leaves a small one, or one that splits

@@ -15,8 +15,9 @@ std::string DefaultDir() {
   return tmpdir && *tmpdir ? tmpdir : "/var/tmp";
 }
 
-// O_TMPFILE where the file system has it; else a named file, unlinked at
-// once: either way nothing is left behind, whatever ends the process.
+// O_TMPFILE where the file system has it: nothing is left behind, whatever
+// ends the process. Else a named file, unlinked at once (only a kill
+// between the two calls could leave it).
 int OpenUnnamed(const std::string& dir) {
 #ifdef O_TMPFILE
   const int fd = open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
@@ -30,6 +31,20 @@ int OpenUnnamed(const std::string& dir) {
   return named;
 }
 
+// The whole range through pwrite or pread, past interruptions and short
+// counts; false on an error or at the file's end.
+template <typename Call>
+bool Whole(std::size_t bytes, std::size_t offset, Call call) {
+  std::size_t done = 0;
+  while (done < bytes) {
+    const ssize_t n = call(done, bytes - done, static_cast<off_t>(offset + done));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    done += static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
 }  // namespace
 
 SpillFile::SpillFile(const std::string& dir) : dir_(dir.empty() ? DefaultDir() : dir) {
@@ -41,27 +56,17 @@ SpillFile::~SpillFile() {
 }
 
 bool SpillFile::Write(std::size_t offset, const double* data, std::size_t count) {
-  const char* p = reinterpret_cast<const char*>(data);
-  std::size_t left = count * sizeof(double);
-  while (left > 0) {
-    const ssize_t n = pwrite(fd_, p, left, static_cast<off_t>(offset));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    p += n, offset += static_cast<std::size_t>(n), left -= static_cast<std::size_t>(n);
-  }
-  return true;
+  const char* bytes = reinterpret_cast<const char*>(data);
+  return Whole(count * sizeof(double), offset, [&](std::size_t at, std::size_t n, off_t where) {
+    return pwrite(fd_, bytes + at, n, where);
+  });
 }
 
 bool SpillFile::Read(std::size_t offset, double* data, std::size_t count) const {
-  char* p = reinterpret_cast<char*>(data);
-  std::size_t left = count * sizeof(double);
-  while (left > 0) {
-    const ssize_t n = pread(fd_, p, left, static_cast<off_t>(offset));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    p += n, offset += static_cast<std::size_t>(n), left -= static_cast<std::size_t>(n);
-  }
-  return true;
+  char* bytes = reinterpret_cast<char*>(data);
+  return Whole(count * sizeof(double), offset, [&](std::size_t at, std::size_t n, off_t where) {
+    return pread(fd_, bytes + at, n, where);
+  });
 }
 
 }  // namespace cairn

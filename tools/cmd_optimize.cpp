@@ -97,7 +97,7 @@ void DeclareSolverOptions(ArgParser& args, OptimizeArgs& a) {
   args.Option("gn-factor-memory", &a.gn_factor_memory, "MB",
               "gn: the most the two-halves factorisation's factors may hold in memory; beyond "
               "it one half's waits on disk ($TMPDIR, else /var/tmp) while the other works, on "
-              "one core, with the same result: auto (about 1.5 KB an edge, at least 256 MB), "
+              "one core, with the same result: auto (about 1.5 KB an edge, at least 256 MiB), "
               "unlimited or a number of MB");
   args.Option("gn-damping", &a.gn_damping, "LAMBDA",
               "gn: Levenberg-Marquardt damping (times diag H) the fallback starts from, 1/radius as in Ceres");

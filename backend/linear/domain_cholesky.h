@@ -37,8 +37,9 @@ std::unique_ptr<SparseCholesky> CreateDomainCholesky(double min_work = kMinWorkT
 
 // A pose graph's solve holds, besides the factor, about 1.5 KB an edge (H,
 // the graph, the vectors, the Jacobians): so the factor may hold as much
-// again and the whole stays within 3 KB an edge (docs/robustness.md, "Where
-// the 3D solve's memory goes"). Below the floor, memory is no concern.
+// again and the whole stays within 3 KB an edge (docs/robustness.md, "One
+// half's factor on disk"). Below the floor the process's fixed memory is of
+// the same order, and parking would cost time for little.
 constexpr double kResidentBytesPerPair = 1536;
 constexpr double kResidentFloorBytes = 256.0 * 1024 * 1024;
 

@@ -51,7 +51,7 @@ struct GaussNewtonOptions : SolverOptions {
   // The most the two-halves factorisation's numeric factors may hold in
   // memory, in bytes; beyond, one half's is kept on disk while the other
   // works (one core, same result). Negative: about 1.5 KB an edge, at least
-  // 256 MB (domain_cholesky.h); infinity: always in memory.
+  // 256 MiB (domain_cholesky.h); infinity: always in memory.
   double factor_memory_bytes = -1;
 
   // SolverOptions::IsValid, and a damping that is a number >= 0.

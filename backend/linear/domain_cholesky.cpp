@@ -615,9 +615,8 @@ class DomainCholmod final : public SparseCholesky {
   bool FactorizeOutOfCore(const double* values) {
     parked_[0] = parked_[1] = false;  // what is on disk is an old factor now
     if (!buffer_) {
-      buffer_size_ = std::max(half_[0].FactorValues(), half_[1].FactorValues());
       buffer_ = static_cast<double*>(
-          cholmod_malloc(buffer_size_, sizeof(double), half_[0].common.get()));
+          cholmod_malloc(BufferValues(), sizeof(double), half_[0].common.get()));
       if (!buffer_) throw std::bad_alloc();
     }
     if (half_[1].Holds(buffer_)) half_[1].Lend(nullptr);
@@ -641,6 +640,11 @@ class DomainCholmod final : public SparseCholesky {
     Park(second);
     Fetch(first);
     Backward(first, x);
+  }
+
+  // The buffer holds either half's factor.
+  size_t BufferValues() const {
+    return std::max(half_[0].FactorValues(), half_[1].FactorValues());
   }
 
   size_t SpillOffset(int g) const { return g == 0 ? 0 : half_[0].FactorValues() * sizeof(double); }
@@ -694,7 +698,7 @@ class DomainCholmod final : public SparseCholesky {
   void Release() {
     for (Half& h : half_)
       if (buffer_ && h.Holds(buffer_)) h.Lend(nullptr);
-    if (buffer_) cholmod_free(buffer_size_, sizeof(double), buffer_, half_[0].common.get());
+    if (buffer_) cholmod_free(BufferValues(), sizeof(double), buffer_, half_[0].common.get());
     buffer_ = nullptr;
     spill_.reset();
     parked_[0] = parked_[1] = false;
@@ -729,7 +733,6 @@ class DomainCholmod final : public SparseCholesky {
   std::unique_ptr<SpillFile> spill_;  // out of core, when the factors outgrow the graph
   bool parked_[2] = {false, false};   // the current factor of each half is on disk
   double* buffer_ = nullptr;          // out of core: the one numeric factor in memory
-  size_t buffer_size_ = 0;            // its doubles, as many as the larger half's
   std::unique_ptr<ThreadPool> pool_;  // made at the first split
   std::unique_ptr<SparseCholesky> whole_;  // when not split
   std::vector<int> given_, used_;

@@ -486,6 +486,15 @@ std::vector<std::vector<size_t>> RunsToTest(const RejectionState& s, double c2) 
   return runs;
 }
 
+// A run (edges of s.inliers) as runs_passed and run_gain know it: its edges
+// in `graph`, ascending, which stay the same while s.inliers is rebuilt.
+std::vector<size_t> RunKey(const RejectionState& s, const std::vector<size_t>& run) {
+  std::vector<size_t> k;
+  for (size_t e : run) k.push_back(s.origin[e]);
+  std::sort(k.begin(), k.end());
+  return k;
+}
+
 // The run verification, when no single loop closure is worth deleting: of
 // the runs whose deletion lowers chi2 by more than their size times `c2`
 // (RunThreshold; the truncated cost is then lower without them), the one
@@ -500,12 +509,7 @@ bool RejectWorstRun(RejectionState& s, double c2) {
   if (s.options.group_window <= 0) return false;
   std::vector<std::vector<size_t>> edges = RunsToTest(s, c2);
   const bool remember = c2 < s.c2;
-  const auto key = [&s](const std::vector<size_t>& run) {
-    std::vector<size_t> k;
-    for (size_t e : run) k.push_back(s.origin[e]);
-    std::sort(k.begin(), k.end());
-    return k;
-  };
+  const auto key = [&s](const std::vector<size_t>& run) { return RunKey(s, run); };
   if (remember)
     edges.erase(std::remove_if(edges.begin(), edges.end(),
                                [&](const std::vector<size_t>& r) {
@@ -812,10 +816,7 @@ std::vector<std::vector<size_t>> StrainedRuns(const RejectionState& s, size_t mo
   constexpr double kStrain = 0.5;
   std::vector<std::pair<double, std::vector<size_t>>> strained;
   for (std::vector<size_t>& run : RunsToTest(s, 0)) {
-    std::vector<size_t> key;
-    for (size_t e : run) key.push_back(s.origin[e]);
-    std::sort(key.begin(), key.end());
-    const auto found = s.run_gain.find(key);
+    const auto found = s.run_gain.find(RunKey(s, run));
     const double size = static_cast<double>(run.size());
     if (found != s.run_gain.end() && found->second > kStrain * size * s.c2)
       strained.emplace_back(found->second / size, std::move(run));

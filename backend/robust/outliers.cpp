@@ -938,7 +938,8 @@ std::vector<std::vector<size_t>> FewClosureCandidates(const RejectionState& s, s
   }
   std::vector<std::pair<double, size_t>> strain;
   for (size_t r = 0; r < runs.size(); ++r)
-    if (std::isfinite(gain[r])) strain.emplace_back(-gain[r] / static_cast<double>(runs[r].size()), r);
+    if (std::isfinite(gain[r]))
+      strain.emplace_back(-gain[r] / static_cast<double>(runs[r].size()), r);
   std::stable_sort(strain.begin(), strain.end());
   std::vector<std::vector<size_t>> out;
   for (size_t i = 0; i < std::min(most, strain.size()); ++i) out.push_back(runs[strain[i].second]);
@@ -1035,7 +1036,8 @@ void SwapPasses(RejectionState& s, double tail) {
   if (swapped && RealisticInformation(s)) {
     const size_t back = AdmitWithinTruncation(s);
     if (s.options.verbose)
-      std::fprintf(stderr, "after the swaps: %zu rejected loop closures cheaper in than out\n", back);
+      std::fprintf(stderr, "after the swaps: %zu rejected loop closures cheaper in than out\n",
+                   back);
     if (back > 0) SolveInliersAgain(s);
   } else if (swapped) {
     ReadmitPasses(s, tail);

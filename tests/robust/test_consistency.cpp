@@ -446,7 +446,8 @@ TEST(Gnc, AMemberOfARejectedRunGoesWithIt) {
   // The last two: two or one of a group of five kept while three or four
   // were rejected (robustness-seeds.sh, smallGrid3D, 10% in groups of 5,
   // seeds 4 and 12).
-  for (const Case& c : {Case{9, 5, 1185}, Case{17, 10, 1191}, Case{17, 5, 1185}, Case{17, 5, 1193}}) {
+  for (const Case& c :
+       {Case{9, 5, 1185}, Case{17, 10, 1191}, Case{17, 5, 1185}, Case{17, 5, 1193}}) {
     const AliasedFile f = ReadAliased(path, c.count, c.size, c.seed);
     for (bool gn : {false, true})
       ExpectExactRejection(f, gn, "seed " + std::to_string(c.seed) + (gn ? " gn" : " ceres"));

@@ -912,7 +912,7 @@ bool RealisticInformation(const RejectionState& s) { return VarianceFactor(s) >=
 // aliased 10% in groups of 10, SEED=11: a wrong pair kept at a strain of 5
 // per loop closure, 7 good rejected, 165 m off). Only with realistic
 // information (RealisticInformation).
-std::vector<std::vector<size_t>> FewClosureCandidates(const RejectionState& s, size_t most) {
+std::vector<std::vector<size_t>> FewClosureCandidates(const RejectionState& s) {
   constexpr size_t kFewClosures = 60;
   if (s.closures.size() > kFewClosures || !RealisticInformation(s)) return {};
   std::vector<std::pair<int64_t, int64_t>> ends;
@@ -942,7 +942,7 @@ std::vector<std::vector<size_t>> FewClosureCandidates(const RejectionState& s, s
       strain.emplace_back(-gain[r] / static_cast<double>(runs[r].size()), r);
   std::stable_sort(strain.begin(), strain.end());
   std::vector<std::vector<size_t>> out;
-  for (size_t i = 0; i < std::min(most, strain.size()); ++i) out.push_back(runs[strain[i].second]);
+  for (const auto& entry : strain) out.push_back(std::move(runs[entry.second]));
   return out;
 }
 
@@ -966,7 +966,7 @@ bool SwapStrainedRun(RejectionState& s) {
     if (SwapIfCheaper(s, run, cost)) return true;
   }
   if (s.few_swaps_left <= 0) return false;
-  for (const std::vector<size_t>& run : FewClosureCandidates(s, s.kept.size())) {
+  for (const std::vector<size_t>& run : FewClosureCandidates(s)) {
     if (!tried.insert(RunKey(s, run)).second) continue;
     if (s.few_swaps_left-- <= 0) break;
     if (SwapIfCheaper(s, run, cost)) return true;

@@ -166,14 +166,17 @@ BlockMatrix DenseGrid(int side) {
   return m;
 }
 
-class TwoHalves : public ::testing::TestWithParam<bool> {};
-
-TEST_P(TwoHalves, SolveExactly) {
+// A 24-block grid, sparse or dense by the parameter, with its pattern.
+class TwoHalves : public ::testing::TestWithParam<bool> {
+ protected:
+  void SetUp() override { m.Pattern(&col_ptr, &rows); }
   const bool dense = GetParam();
   const BlockMatrix m = dense ? DenseGrid(24) : Grid(24);
   std::vector<int> col_ptr, rows;
-  m.Pattern(&col_ptr, &rows);
-  const std::vector<int> sizes(m.blocks, 3);
+  const std::vector<int> sizes = std::vector<int>(m.blocks, 3);
+};
+
+TEST_P(TwoHalves, SolveExactly) {
   auto chol = CreateDomainCholesky(/*min_work=*/0);
   chol->Analyze(3 * m.blocks, col_ptr, rows, sizes);
   ASSERT_NE(chol->Method().find("two halves"), std::string::npos) << chol->Method();
@@ -206,11 +209,8 @@ TEST_P(TwoHalves, SolveExactly) {
 }
 
 TEST_P(TwoHalves, RefuseAMatrixThatIsNotPositiveDefinite) {
-  const BlockMatrix m = GetParam() ? DenseGrid(20) : Grid(20);
-  std::vector<int> col_ptr, rows;
-  m.Pattern(&col_ptr, &rows);
   auto chol = CreateDomainCholesky(0);
-  chol->Analyze(3 * m.blocks, col_ptr, rows, std::vector<int>(m.blocks, 3));
+  chol->Analyze(3 * m.blocks, col_ptr, rows, sizes);
   ASSERT_NE(chol->Method().find("two halves"), std::string::npos);
   // Indefinite in each block in turn: in either half or in the separator.
   const Eigen::MatrixXd positive = m.Dense(7);
@@ -245,10 +245,6 @@ ValuePlaces TakePlaces(SparseCholesky& chol, size_t entries) {
 }
 
 TEST_P(TwoHalves, ValuesWrittenInPlaceSolveAsTheirCopy) {
-  const BlockMatrix m = GetParam() ? DenseGrid(24) : Grid(24);
-  std::vector<int> col_ptr, rows;
-  m.Pattern(&col_ptr, &rows);
-  const std::vector<int> sizes(m.blocks, 3);
   const Eigen::MatrixXd a = m.Dense(9), a2 = m.Dense(10);
   const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(a.rows(), -1, 2);
   std::vector<std::pair<std::string, std::unique_ptr<SparseCholesky>>> copy, in_place;
@@ -297,11 +293,6 @@ TEST_P(TwoHalves, ValuesWrittenInPlaceSolveAsTheirCopy) {
 // a second solve with the same factor (a chord step), new values, and
 // values written in place. Simplicial halves are never parked.
 TEST_P(TwoHalves, OutOfCoreSolvesAsInMemory) {
-  const bool dense = GetParam();
-  const BlockMatrix m = dense ? DenseGrid(24) : Grid(24);
-  std::vector<int> col_ptr, rows;
-  m.Pattern(&col_ptr, &rows);
-  const std::vector<int> sizes(m.blocks, 3);
   auto in_memory = CreateDomainCholesky(0, 2, -1);
   auto out_of_core = CreateDomainCholesky(0, 2, -1, /*resident_factor_bytes=*/0);
   in_memory->Analyze(3 * m.blocks, col_ptr, rows, sizes);

@@ -282,6 +282,29 @@ class GraphBuilder {
     const bool implausible = !lost_ && ArcMisfit(current_, narrow.pose) > 0.7;
     if (narrow_good && !at_edge && !implausible) return narrow;
     ++res_.stats.wide_searches;
+    Choice c = Recover(cloud, predicted, previous, narrow, at_edge, implausible, doubt);
+    // A pose whose scan puts walls where the local map saw through, when
+    // the odometry's does not, is a fit to the wrong walls: with long steps
+    // into new space the true pose fits little of the local map, and the
+    // best fits lie where the scan's points fall on known walls.
+    if (c.match && ContradictsOdometry(cloud, c.match->pose, predicted)) {
+      ++res_.stats.vetoed;
+      *doubt = false;
+      return std::nullopt;
+    }
+    if (c.recovered) ++res_.stats.recoveries;
+    return c.match;
+  }
+
+  // What the scan's wide search, the narrow match and the odometry add up
+  // to: a pose (recovered: one the narrow search did not give) or none.
+  struct Choice {
+    std::optional<IcpResult> match;
+    bool recovered = false;
+  };
+  Choice Recover(const PointCloud& cloud, const SE2& predicted, const std::optional<SE2>& previous,
+                 const IcpResult& narrow, bool at_edge, bool implausible, bool* doubt) {
+    CorrelativeResult cr;
     const IcpResult wide = MatchLocalMap(cloud, predicted, WideSearch(), &cr);
     // The wide pose must beat the narrow one clearly, the more clearly the
     // more right that one looked: repeated rooms and flipped corridors offer
@@ -305,10 +328,8 @@ class GraphBuilder {
         std::abs(NormalizeAngle(cr.runner_up.theta() - cr.pose.theta())) >= 0.17) {
       IcpResult second;
       const Ahead ahead = NextScanDecides(wide, cloud, cr.runner_up, &second);
-      if (ahead != Ahead::kUndecided) {
-        ++res_.stats.recoveries;
-        return ahead == Ahead::kSecond ? second : AlongTheRidge(cloud, predicted, wide);
-      }
+      if (ahead != Ahead::kUndecided)
+        return {ahead == Ahead::kSecond ? second : AlongTheRidge(cloud, predicted, wide), true};
     }
     // A second that differs only in place (a corridor's other door) leaves
     // the heading settled: the place is the prediction's, if a pose at that
@@ -316,17 +337,18 @@ class GraphBuilder {
     const bool heading_settled =
         fits_better && std::abs(NormalizeAngle(cr.runner_up.theta() - cr.pose.theta())) < 0.17;
     if (!wide_better && heading_settled) {
-      if (std::optional<IcpResult> near = AtHeading(cloud, predicted, wide, 0.1)) {
-        ++res_.stats.recoveries;
-        return near;
-      }
+      if (std::optional<IcpResult> near = AtHeading(cloud, predicted, wide, 0.1))
+        return {near, true};
     }
     // Below the recent median alone is a reason to look wider, not to drop
     // a match the plain test accepts.
     if (!wide_better) {
-      if (narrow_ok && (at_edge || implausible))
-        return MostPlausible(cloud, predicted, narrow, wide, cr);
-      if (Acceptable(narrow)) return narrow;
+      if (narrow_ok && (at_edge || implausible)) {
+        size_t chosen = 0;
+        const IcpResult m = MostPlausible(cloud, predicted, narrow, wide, cr, &chosen);
+        return {m, chosen != 0};
+      }
+      if (Acceptable(narrow)) return {narrow};
       // The scan disputes the odometry when its best pose lies at the
       // window's edge, or when it fits far better somewhere the ambiguity
       // test would not let us take (twice the inliers: a scan that merely
@@ -335,10 +357,18 @@ class GraphBuilder {
                              wide.inlier_fraction >= 2 * narrow.inlier_fraction;
       *doubt = at_edge || elsewhere;
       if (elsewhere) hypothesis_ = wide.pose;
-      return std::nullopt;
+      return {};
     }
-    ++res_.stats.recoveries;
-    return AlongTheRidge(cloud, predicted, wide);
+    return {AlongTheRidge(cloud, predicted, wide), true};
+  }
+
+  // The scan at `pose` puts at least a tenth more of its points in space
+  // the local map's keyframes saw through than at the odometry's prediction.
+  bool ContradictsOdometry(const PointCloud& cloud, const SE2& pose, const SE2& predicted) const {
+    const OccupancyGrid free_space = FreeSpace(LocalMapKeyframes());
+    constexpr double kContradicted = 0.1;
+    return ContradictedShare(free_space, cloud, pose) >=
+           ContradictedShare(free_space, cloud, predicted) + kContradicted;
   }
 
   // A doubted narrow match (at the window's edge, or a move no base makes)
@@ -350,7 +380,7 @@ class GraphBuilder {
   // be a move a base makes: one merely less wrong than the narrow match is
   // no reason to leave it.
   IcpResult MostPlausible(const PointCloud& cloud, const SE2& predicted, const IcpResult& narrow,
-                          const IcpResult& wide, const CorrelativeResult& cr) {
+                          const IcpResult& wide, const CorrelativeResult& cr, size_t* chosen_out) {
     auto misfit = [&](const IcpResult& r) { return lost_ ? 0.0 : ArcMisfit(current_, r.pose); };
     constexpr double kPlausible = 0.3;
     std::vector<IcpResult> candidates{narrow};
@@ -372,7 +402,7 @@ class GraphBuilder {
     size_t chosen = 0;
     for (size_t k = 1; k < candidates.size(); ++k)
       if (fit[k] >= tied && (fit[chosen] < tied || away[k] < away[chosen])) chosen = k;
-    if (chosen != 0) ++res_.stats.recoveries;
+    *chosen_out = chosen;
     return candidates[chosen];
   }
 

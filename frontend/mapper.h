@@ -99,6 +99,10 @@ struct MapperStats {
   size_t loop_candidates = 0, loop_accepted = 0, optimizations = 0, tracking_failures = 0;
   // Poor matches searched again wide, and those the wide search recovered.
   size_t wide_searches = 0, recoveries = 0;
+  // Poses the searches offered that the odometry's prediction refuted:
+  // their scan put walls where the local map saw through, the prediction's
+  // did not. The odometry was kept.
+  size_t vetoed = 0;
   double odometry_scale = 1;  // the factor learned for the odometry's translation
   double seconds_matching = 0, seconds_local_map = 0, seconds_loops = 0, seconds_optimizing = 0;
 };

@@ -165,8 +165,10 @@ def ate_of(cairn, log, prefix):
     m = re.search(r"result\s*: ATE ([0-9.]+) m", run.stderr)
     fell = re.search(r"(\d+) scans fell back to odometry", run.stderr)
     rec = re.search(r"(\d+) recover", run.stderr)
-    return "%s%s%s" % (m.group(1) if m else "?", " (%s rec.)" % rec.group(1) if rec else "",
-                       " (%s fell back)" % fell.group(1) if fell and fell.group(1) != "0" else "")
+    vetoed = re.search(r"(\d+) were refuted by the odometry", run.stderr)
+    return "%s%s%s%s" % (m.group(1) if m else "?", " (%s rec.)" % rec.group(1) if rec else "",
+                         " (%s refuted)" % vetoed.group(1) if vetoed and vetoed.group(1) != "0" else "",
+                         " (%s fell back)" % fell.group(1) if fell and fell.group(1) != "0" else "")
 
 
 def log_name(log):

@@ -249,8 +249,9 @@ int RunMap(int argc, char** argv) {
             << res.graph.CountEdges(EdgeKind::kOdometry) << " odometry edges, " << st.loop_accepted
             << " loop closures accepted of " << st.loop_candidates << " candidates, "
             << st.optimizations << " optimisations (" << a.solver << "), " << st.wide_searches
-            << " poor matches searched wide of which " << st.recoveries << " recovered, "
-            << st.tracking_failures << " scans fell back to odometry; odometry scale learned " << st.odometry_scale << "\n";
+            << " poor matches searched wide of which " << st.recoveries << " recovered and "
+            << st.vetoed << " were refuted by the odometry, " << st.tracking_failures
+            << " scans fell back to odometry; odometry scale learned " << st.odometry_scale << "\n";
   std::cerr << std::fixed << std::setprecision(2) << "time: read " << t_read << " s, matching "
             << st.seconds_matching << " s (+ local maps " << st.seconds_local_map << " s), loop closure " << st.seconds_loops << " s, optimisation "
             << st.seconds_optimizing << " s (graph total " << t_graph << " s), mapping " << t_grid

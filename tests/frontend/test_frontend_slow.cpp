@@ -179,6 +179,20 @@ TEST(HarnessEndToEnd, AcesWithEveryOtherScanDropped) {
   EXPECT_LE(ate, 0.15);
 }
 
+// csail with every other scan dropped: steps twice as long reach space the
+// local map has not seen, and at scans 163, 185 and 189 the narrow match (at
+// its window's edge) or the wide search offered poses 1.7 m and 61 degrees
+// from the odometry's prediction, which was within 0.3 m and 8 degrees.
+// There the scan put 9-24% of its points where the local map's keyframes
+// saw through, at the prediction none: such a pose is now refused and the
+// odometry kept (0.760 m before). Not yet within 0.15 m: see docs/frontend.md.
+TEST(HarnessEndToEnd, CsailWithEveryOtherScanDropped) {
+  const double ate = HarnessAte("csail", "skip", 1);
+  if (ate == -1) GTEST_SKIP() << "dataset not found: csail-corrected.log.gz";
+  EXPECT_GT(ate, 0);
+  EXPECT_LE(ate, 0.3);
+}
+
 // csail's stamps have 6 significant digits (hundreds of scans share one):
 // its keyframes pair with the log by scan index, which PREFIX_keyframes.csv
 // gives.

@@ -280,9 +280,15 @@ class GraphBuilder {
     // From a matched pose, a move no wheeled base makes between two scans
     // is a wrong prediction's local fit (a room's turned twin).
     const bool implausible = !lost_ && ArcMisfit(current_, narrow.pose) > 0.7;
-    if (narrow_good && !at_edge && !implausible) return narrow;
+    // A match that left the prediction by more than an odometry step's error
+    // while putting a sixth of its scan's points where the local map saw
+    // through fits walls it is not facing (a glitched turn's room, turned).
+    const bool contradicted =
+        !Near(predicted, narrow.pose) &&
+        ContradictedShare(FreeSpace(LocalMapKeyframes()), cloud, narrow.pose) >= 0.15;
+    if (narrow_good && !at_edge && !implausible && !contradicted) return narrow;
     ++res_.stats.wide_searches;
-    Choice c = Recover(cloud, predicted, previous, narrow, at_edge, implausible, doubt);
+    Choice c = Recover(cloud, predicted, previous, narrow, at_edge, implausible || contradicted, doubt);
     // A pose whose scan puts walls where the local map saw through, when
     // the odometry's does not, is a fit to the wrong walls: with long steps
     // into new space the true pose fits little of the local map, and the
@@ -298,12 +304,14 @@ class GraphBuilder {
 
   // What the scan's wide search, the narrow match and the odometry add up
   // to: a pose (recovered: one the narrow search did not give) or none.
+  // `suspect`: the narrow match was a move no base makes, or its scan
+  // contradicted the local map's free space.
   struct Choice {
     std::optional<IcpResult> match;
     bool recovered = false;
   };
   Choice Recover(const PointCloud& cloud, const SE2& predicted, const std::optional<SE2>& previous,
-                 const IcpResult& narrow, bool at_edge, bool implausible, bool* doubt) {
+                 const IcpResult& narrow, bool at_edge, bool suspect, bool* doubt) {
     CorrelativeResult cr;
     const IcpResult wide = MatchLocalMap(cloud, predicted, WideSearch(), &cr);
     // The wide pose must beat the narrow one clearly, the more clearly the
@@ -311,8 +319,8 @@ class GraphBuilder {
     // wrong poses that fit nearly as well. After a failed match the scan may
     // see much the local map lacks, so the recent median does not apply.
     const bool narrow_ok = Acceptable(narrow);
-    const bool doubted = !narrow_ok || at_edge || implausible;
-    const double margin = !narrow_ok ? 0.2 : at_edge || implausible ? 0.1 : 0.25;
+    const bool doubted = !narrow_ok || at_edge || suspect;
+    const double margin = !narrow_ok ? 0.2 : at_edge || suspect ? 0.1 : 0.25;
     const bool fits_better = (narrow_ok ? Good(wide) : Acceptable(wide)) &&
                              wide.inlier_fraction >= narrow.inlier_fraction + margin;
     // An ambiguous wide pose is taken when the previous scan's, refused as
@@ -343,7 +351,7 @@ class GraphBuilder {
     // Below the recent median alone is a reason to look wider, not to drop
     // a match the plain test accepts.
     if (!wide_better) {
-      if (narrow_ok && (at_edge || implausible)) {
+      if (narrow_ok && (at_edge || suspect)) {
         size_t chosen = 0;
         const IcpResult m = MostPlausible(cloud, predicted, narrow, wide, cr, &chosen);
         return {m, chosen != 0};

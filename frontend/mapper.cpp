@@ -286,9 +286,10 @@ class GraphBuilder {
     const bool contradicted =
         !Near(predicted, narrow.pose) &&
         ContradictedShare(FreeSpace(LocalMapKeyframes()), cloud, narrow.pose) >= 0.15;
-    if (narrow_good && !at_edge && !implausible && !contradicted) return narrow;
+    const bool suspect = implausible || contradicted;
+    if (narrow_good && !at_edge && !suspect) return narrow;
     ++res_.stats.wide_searches;
-    Choice c = Recover(cloud, predicted, previous, narrow, at_edge, implausible || contradicted, doubt);
+    const Choice c = Recover(cloud, predicted, previous, narrow, at_edge, suspect, doubt);
     // A pose whose scan puts walls where the local map saw through, when
     // the odometry's does not, is a fit to the wrong walls: with long steps
     // into new space the true pose fits little of the local map, and the

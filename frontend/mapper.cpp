@@ -283,13 +283,17 @@ class GraphBuilder {
     // A match that left the prediction by more than an odometry step's error
     // while putting a sixth of its scan's points where the local map saw
     // through fits walls it is not facing (a glitched turn's room, turned).
-    const bool contradicted =
-        !Near(predicted, narrow.pose) &&
-        ContradictedShare(FreeSpace(LocalMapKeyframes()), cloud, narrow.pose) >= 0.15;
+    const double in_free_space =
+        Near(predicted, narrow.pose)
+            ? 0.0
+            : ContradictedShare(FreeSpace(LocalMapKeyframes()), cloud, narrow.pose);
+    const bool contradicted = in_free_space >= 0.15;
     const bool suspect = implausible || contradicted;
     if (narrow_good && !at_edge && !suspect) return narrow;
     ++res_.stats.wide_searches;
-    const Choice c = Recover(cloud, predicted, previous, narrow, at_edge, suspect, doubt);
+    const double narrow_fit = narrow.inlier_fraction - (contradicted ? in_free_space : 0.0);
+    const Choice c =
+        Recover(cloud, predicted, previous, {narrow, narrow_fit, at_edge, suspect}, doubt);
     // A pose whose scan puts walls where the local map saw through, when
     // the odometry's does not, is a fit to the wrong walls: with long steps
     // into new space the true pose fits little of the local map, and the
@@ -311,8 +315,15 @@ class GraphBuilder {
     std::optional<IcpResult> match;
     bool recovered = false;
   };
+  struct Narrow {
+    const IcpResult& match;
+    double fit;  // its inliers, less those in free space when it is contradicted
+    bool at_edge, suspect;
+  };
   Choice Recover(const PointCloud& cloud, const SE2& predicted, const std::optional<SE2>& previous,
-                 const IcpResult& narrow, bool at_edge, bool suspect, bool* doubt) {
+                 const Narrow& n, bool* doubt) {
+    const IcpResult& narrow = n.match;
+    const bool at_edge = n.at_edge, suspect = n.suspect;
     CorrelativeResult cr;
     const IcpResult wide = MatchLocalMap(cloud, predicted, WideSearch(), &cr);
     // The wide pose must beat the narrow one clearly, the more clearly the
@@ -323,7 +334,7 @@ class GraphBuilder {
     const bool doubted = !narrow_ok || at_edge || suspect;
     const double margin = !narrow_ok ? 0.2 : at_edge || suspect ? 0.1 : 0.25;
     const bool fits_better = (narrow_ok ? Good(wide) : Acceptable(wide)) &&
-                             wide.inlier_fraction >= narrow.inlier_fraction + margin;
+                             wide.inlier_fraction >= NarrowBar(cloud, n, wide) + margin;
     // An ambiguous wide pose is taken when the previous scan's, refused as
     // ambiguous too, lands on it through the odometry between them: a
     // symmetric place offers its twin poses to one scan, rarely the same
@@ -369,6 +380,17 @@ class GraphBuilder {
       return {};
     }
     return {AlongTheRidge(cloud, predicted, wide), true};
+  }
+
+  // The narrow match's inliers, as the wide pose must beat them: those in
+  // the local map's free space left out when the wide pose has next to
+  // none there (else both fit walls the scan is not facing, and the plain
+  // inliers compare them).
+  double NarrowBar(const PointCloud& cloud, const Narrow& n, const IcpResult& wide) const {
+    if (n.fit >= n.match.inlier_fraction) return n.match.inlier_fraction;
+    constexpr double kClean = 0.05;
+    const bool clean = ContradictedShare(FreeSpace(LocalMapKeyframes()), cloud, wide.pose) < kClean;
+    return clean ? n.fit : n.match.inlier_fraction;
   }
 
   // The scan at `pose` puts at least a tenth more of its points in space

@@ -12,7 +12,10 @@ Cases: glitch (three steps whose odometry heading is off by 60-90 degrees and
 translation by up to 1 m), drift (1 degree of heading per metre travelled),
 noise3 (the odometry's own error, scan to scan, three times larger), half
 (every other beam), skip (every other scan dropped), range (3 cm Gaussian
-range noise on every return).
+range noise on every return). On request (`--cases`): reset (one step whose
+heading is off by 90-180 degrees and translation by up to 2 m, as when the
+odometry restarts), and any cases joined by "+" (glitch+half: the glitches on
+half the beams).
 
 The reference poses on the laser lines are never touched. In a corrected log
 the ODOM chain restarts at each scan's pose: the raw motion between scans k-1
@@ -31,6 +34,7 @@ import subprocess
 import sys
 
 CASES = ["glitch", "drift", "noise3", "half", "skip", "range"]
+MORE_CASES = ["reset"]  # made on request (--cases), not by default
 
 
 def wrap(a):
@@ -92,21 +96,30 @@ def scaled_error(true_motion, raw_motion, factor):
     return compose(true_motion, (factor * e[0], factor * e[1], factor * e[2]))
 
 
+def glitch_steps(scans, motions, rng, count, degrees, max_shift):
+    """`count` steps, away from either end, turned by a heading error drawn
+    from `degrees` (either sign) and shifted by up to `max_shift` metres."""
+    n = len(scans)
+    for k in rng.sample(range(max(2, n // 10), max(3, n - n // 10)), count):
+        heading = math.radians(rng.uniform(*degrees)) * rng.choice([-1, 1])
+        d, a = rng.uniform(0, max_shift), rng.uniform(-math.pi, math.pi)
+        motions[k] = compose(motions[k], (d * math.cos(a), d * math.sin(a), heading))
+
+
 def perturb_motions(case, scans, rng):
     motions = [m for _, _, m in scans]
-    if case == "glitch":
-        n = len(scans)
-        for k in rng.sample(range(max(2, n // 10), max(3, n - n // 10)), 3):
-            heading = math.radians(rng.uniform(60, 90)) * rng.choice([-1, 1])
-            d, a = rng.uniform(0, 1), rng.uniform(-math.pi, math.pi)
-            motions[k] = compose(motions[k], (d * math.cos(a), d * math.sin(a), heading))
-    elif case == "drift":
-        for k, m in enumerate(motions):
-            motions[k] = (m[0], m[1], wrap(m[2] + math.radians(1.0) * math.hypot(m[0], m[1])))
-    elif case == "noise3":
-        for k in range(1, len(scans)):
-            true = between(scans[k - 1][1], scans[k][1])
-            motions[k] = scaled_error(true, motions[k], 3.0)
+    for part in case.split("+"):
+        if part == "glitch":
+            glitch_steps(scans, motions, rng, 3, (60, 90), 1.0)
+        elif part == "reset":
+            glitch_steps(scans, motions, rng, 1, (90, 180), 2.0)
+        elif part == "drift":
+            for k, m in enumerate(motions):
+                motions[k] = (m[0], m[1], wrap(m[2] + math.radians(1.0) * math.hypot(m[0], m[1])))
+        elif part == "noise3":
+            for k in range(1, len(scans)):
+                true = between(scans[k - 1][1], scans[k][1])
+                motions[k] = scaled_error(true, motions[k], 3.0)
     return motions
 
 
@@ -116,23 +129,27 @@ def fmt(v):
 
 def rewrite_laser(tokens, case, rng, max_reading):
     ranges, k = laser_fields(tokens)
-    if case == "half":
-        ranges = ranges[::2]
-    elif case == "range":
-        ranges = [r if r >= max_reading - 1e-3 else max(0.0, r + rng.gauss(0, 0.03)) for r in ranges]
-    else:
+    parts = case.split("+")
+    if "half" not in parts and "range" not in parts:
         return " ".join(tokens)
+    if "half" in parts:
+        ranges = ranges[::2]
+    if "range" in parts:
+        ranges = [r if r >= max_reading - 1e-3 else max(0.0, r + rng.gauss(0, 0.03)) for r in ranges]
     return " ".join(["FLASER", str(len(ranges))] + [fmt(r) for r in ranges] + tokens[k:])
 
 
 def make(path, case, out_path, seed):
-    if case not in CASES:
-        sys.exit("unknown case %s (one of %s)" % (case, ", ".join(CASES)))
+    unknown = [p for p in case.split("+") if p not in CASES + MORE_CASES]
+    if unknown:
+        sys.exit("unknown case %s (one of %s, or several joined by +)" %
+                 (unknown[0], ", ".join(CASES + MORE_CASES)))
     rng = random.Random(seed)
     lines = read_log(path)
     scans = parse(lines)
     motions = perturb_motions(case, scans, rng)
-    keep = [k % 2 == 0 for k in range(len(scans))] if case == "skip" else [True] * len(scans)
+    skip = "skip" in case.split("+")
+    keep = [k % 2 == 0 or not skip for k in range(len(scans))]
     max_reading = max((max(laser_fields(lines[i].split())[0]) for i, _, _ in scans), default=0)
     scan_at = {i: k for k, (i, _, _) in enumerate(scans)}
     out, prev_kept, pending = [], None, (0.0, 0.0, 0.0)

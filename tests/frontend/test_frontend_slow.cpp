@@ -78,23 +78,26 @@ double HarnessAte(const std::string& log_name, const std::string& kase, int seed
   return std::stod(m[1]);
 }
 
-// Each (log, seed) glitch run of the harness within `bound` m ATE.
-void ExpectGlitchRunsWithin(std::initializer_list<std::pair<const char*, int>> runs, double bound) {
+// Each (log, seed) run of a harness case within `bound` m ATE; skipped
+// when a log is absent.
+void ExpectRunsWithin(const std::string& kase,
+                      std::initializer_list<std::pair<const char*, int>> runs, double bound) {
   for (const auto& [log, seed] : runs) {
-    const double ate = HarnessAte(log, "glitch", seed);
+    const double ate = HarnessAte(log, kase, seed);
     if (ate == -1) GTEST_SKIP() << "dataset not found: " << log << "-corrected.log.gz";
-    EXPECT_GT(ate, 0) << log << " seed " << seed;
-    EXPECT_LE(ate, bound) << log << " seed " << seed;
+    EXPECT_GT(ate, 0) << log << " " << kase << " seed " << seed;
+    EXPECT_LE(ate, bound) << log << " " << kase << " seed " << seed;
   }
+}
+
+void ExpectGlitchRunsWithin(std::initializer_list<std::pair<const char*, int>> runs, double bound) {
+  ExpectRunsWithin("glitch", runs, bound);
 }
 
 // Three steps of aces' odometry with the heading 60-90 degrees off (and up
 // to 1 m of translation): 22.9 m ATE before tracking judged its matches.
 TEST(HarnessEndToEnd, AcesWithOdometryGlitches) {
-  const double ate = HarnessAte("aces", "glitch", 1);
-  if (ate == -1) GTEST_SKIP() << "dataset not found: aces-corrected.log.gz";
-  EXPECT_GT(ate, 0);
-  EXPECT_LE(ate, 0.15);
+  ExpectRunsWithin("glitch", {{"aces", 1}}, 0.15);
 }
 
 // Seeds on which a right wide pose was once refused or misplaced. Seed 3:
@@ -155,28 +158,17 @@ TEST(HarnessEndToEnd, TwinsThatPutWallsInFreeSpace) {
 // 20 degree window, and no loop closure re-anchored it. Across such steps
 // the loop search now widens by their odometry's uncertainty: 0.098 m.
 TEST(HarnessEndToEnd, CsailWithThreeTimesTheOdometryNoise) {
-  const double ate = HarnessAte("csail", "noise3", 1);
-  if (ate == -1) GTEST_SKIP() << "dataset not found: csail-corrected.log.gz";
-  EXPECT_GT(ate, 0);
-  EXPECT_LE(ate, 0.15);
+  ExpectRunsWithin("noise3", {{"csail", 1}}, 0.15);
 }
 
 // The same widening on csail with half its beams and with 3 cm of range
 // noise (0.152 and 0.195 m before it).
 TEST(HarnessEndToEnd, CsailWithHalfTheBeamsOrRangeNoise) {
-  for (const char* kase : {"half", "range"}) {
-    const double ate = HarnessAte("csail", kase, 1);
-    if (ate == -1) GTEST_SKIP() << "dataset not found: csail-corrected.log.gz";
-    EXPECT_GT(ate, 0) << kase;
-    EXPECT_LE(ate, 0.15) << kase;
-  }
+  for (const char* kase : {"half", "range"}) ExpectRunsWithin(kase, {{"csail", 1}}, 0.15);
 }
 
 TEST(HarnessEndToEnd, AcesWithEveryOtherScanDropped) {
-  const double ate = HarnessAte("aces", "skip", 1);
-  if (ate == -1) GTEST_SKIP() << "dataset not found: aces-corrected.log.gz";
-  EXPECT_GT(ate, 0);
-  EXPECT_LE(ate, 0.15);
+  ExpectRunsWithin("skip", {{"aces", 1}}, 0.15);
 }
 
 // csail seed 43, scan 59: the odometry turned 84 degrees too far, and the
@@ -195,10 +187,7 @@ TEST(HarnessEndToEnd, GlitchedTurnMatchedIntoFreeSpace) {
 // match's points lay where the local map saw through; they no longer count
 // for it when the wide pose has next to none there (3.95 m before).
 TEST(HarnessEndToEnd, GlitchWithRangeNoiseAgainstAContradictedMatch) {
-  const double ate = HarnessAte("csail", "glitch+range", 2);
-  if (ate == -1) GTEST_SKIP() << "dataset not found: csail-corrected.log.gz";
-  EXPECT_GT(ate, 0);
-  EXPECT_LE(ate, 0.15);
+  ExpectRunsWithin("glitch+range", {{"csail", 2}}, 0.15);
 }
 
 // csail with every other scan dropped: steps twice as long reach space the
@@ -209,10 +198,7 @@ TEST(HarnessEndToEnd, GlitchWithRangeNoiseAgainstAContradictedMatch) {
 // saw through, at the prediction none: such a pose is now refused and the
 // odometry kept (0.760 m before). Not yet within 0.15 m: see docs/frontend.md.
 TEST(HarnessEndToEnd, CsailWithEveryOtherScanDropped) {
-  const double ate = HarnessAte("csail", "skip", 1);
-  if (ate == -1) GTEST_SKIP() << "dataset not found: csail-corrected.log.gz";
-  EXPECT_GT(ate, 0);
-  EXPECT_LE(ate, 0.3);
+  ExpectRunsWithin("skip", {{"csail", 1}}, 0.3);
 }
 
 // csail's stamps have 6 significant digits (hundreds of scans share one):

@@ -284,16 +284,14 @@ class GraphBuilder {
     // while putting a sixth of its scan's points where the local map saw
     // through fits walls it is not facing (a glitched turn's room, turned).
     const double in_free_space =
-        Near(predicted, narrow.pose)
-            ? 0.0
-            : ContradictedShare(FreeSpace(LocalMapKeyframes()), cloud, narrow.pose);
-    const bool contradicted = in_free_space >= 0.15;
-    const bool suspect = implausible || contradicted;
+        Near(predicted, narrow.pose) ? 0.0
+                                     : ContradictedShare(LocalFreeSpace(), cloud, narrow.pose);
+    const double contradicted = in_free_space >= 0.15 ? in_free_space : 0.0;
+    const bool suspect = implausible || contradicted > 0;
     if (narrow_good && !at_edge && !suspect) return narrow;
     ++res_.stats.wide_searches;
-    const double narrow_fit = narrow.inlier_fraction - (contradicted ? in_free_space : 0.0);
     const Choice c =
-        Recover(cloud, predicted, previous, {narrow, narrow_fit, at_edge, suspect}, doubt);
+        Recover(cloud, predicted, previous, {narrow, at_edge, suspect, contradicted}, doubt);
     // A pose whose scan puts walls where the local map saw through, when
     // the odometry's does not, is a fit to the wrong walls: with long steps
     // into new space the true pose fits little of the local map, and the
@@ -309,16 +307,17 @@ class GraphBuilder {
 
   // What the scan's wide search, the narrow match and the odometry add up
   // to: a pose (recovered: one the narrow search did not give) or none.
-  // `suspect`: the narrow match was a move no base makes, or its scan
-  // contradicted the local map's free space.
   struct Choice {
     std::optional<IcpResult> match;
     bool recovered = false;
   };
+  // The narrow match and what doubts it. suspect: a move no base makes, or
+  // `contradicted`, the share of its scan in the local map's free space
+  // (0 unless it reached the doubting level).
   struct Narrow {
     const IcpResult& match;
-    double fit;  // its inliers, less those in free space when it is contradicted
     bool at_edge, suspect;
+    double contradicted;
   };
   Choice Recover(const PointCloud& cloud, const SE2& predicted, const std::optional<SE2>& previous,
                  const Narrow& n, bool* doubt) {
@@ -387,19 +386,18 @@ class GraphBuilder {
   // none there (else both fit walls the scan is not facing, and the plain
   // inliers compare them).
   double NarrowBar(const PointCloud& cloud, const Narrow& n, const IcpResult& wide) const {
-    if (n.fit >= n.match.inlier_fraction) return n.match.inlier_fraction;
     constexpr double kClean = 0.05;
-    const bool clean = ContradictedShare(FreeSpace(LocalMapKeyframes()), cloud, wide.pose) < kClean;
-    return clean ? n.fit : n.match.inlier_fraction;
+    const bool discount =
+        n.contradicted > 0 && ContradictedShare(LocalFreeSpace(), cloud, wide.pose) < kClean;
+    return n.match.inlier_fraction - (discount ? n.contradicted : 0.0);
   }
 
   // The scan at `pose` puts at least a tenth more of its points in space
   // the local map's keyframes saw through than at the odometry's prediction.
   bool ContradictsOdometry(const PointCloud& cloud, const SE2& pose, const SE2& predicted) const {
-    const OccupancyGrid free_space = FreeSpace(LocalMapKeyframes());
     constexpr double kContradicted = 0.1;
-    return ContradictedShare(free_space, cloud, pose) >=
-           ContradictedShare(free_space, cloud, predicted) + kContradicted;
+    return ContradictedShare(LocalFreeSpace(), cloud, pose) >=
+           ContradictedShare(LocalFreeSpace(), cloud, predicted) + kContradicted;
   }
 
   // A doubted narrow match (at the window's edge, or a move no base makes)
@@ -470,6 +468,14 @@ class GraphBuilder {
     return grid;
   }
 
+  // FreeSpace of the local map's keyframes, built when first asked for and
+  // kept until the local map is rebuilt: the searches of one scan ask
+  // several times.
+  const OccupancyGrid& LocalFreeSpace() const {
+    if (!free_space_) free_space_ = FreeSpace(LocalMapKeyframes());
+    return *free_space_;
+  }
+
   enum class Ahead { kUndecided, kBest, kSecond };
   // Which of the wide search's best pose and its runner-up (*second, once
   // refined) to take. First, free space: a pose whose scan puts walls where
@@ -484,9 +490,8 @@ class GraphBuilder {
                         IcpResult* second) const {
     *second = RefineNear(cloud, runner_up);
     if (!Acceptable(*second)) return Ahead::kBest;
-    const OccupancyGrid free_space = FreeSpace(LocalMapKeyframes());
-    const double best_contradicted = ContradictedShare(free_space, cloud, best.pose);
-    const double second_contradicted = ContradictedShare(free_space, cloud, second->pose);
+    const double best_contradicted = ContradictedShare(LocalFreeSpace(), cloud, best.pose);
+    const double second_contradicted = ContradictedShare(LocalFreeSpace(), cloud, second->pose);
     constexpr double kContradicted = 0.1;
     if (best_contradicted >= second_contradicted + kContradicted) return Ahead::kSecond;
     if (second_contradicted >= best_contradicted + kContradicted) return Ahead::kBest;
@@ -753,6 +758,7 @@ class GraphBuilder {
     const auto t0 = Clock::now();
     // Overlapping keyframes repeat points; one per 2.5 cm is plenty.
     local_ = std::make_unique<MapPair>(Downsample(world, 0.025));
+    free_space_.reset();
     res_.stats.seconds_local_map += Since(t0);
   }
 
@@ -791,6 +797,7 @@ class GraphBuilder {
   std::vector<size_t> scan_kf_;  // each scan's keyframe...
   std::vector<SE2> scan_rel_;    // ...and its pose relative to it
   std::unique_ptr<MapPair> local_;
+  mutable std::optional<OccupancyGrid> free_space_;  // LocalFreeSpace's
   SE2 current_, dr_;
   double odo_num_ = 0, odo_den_ = 0;  // least-squares odometry scale
   double path_ = 0;

@@ -90,7 +90,8 @@ void DeclareSolverOptions(ArgParser& args, OptimizeArgs& a) {
   args.Option("linear-solver", &a.linear_solver, "NAME",
               "how H dx = -b is solved. gn: auto, parallel, supernodal, simplicial, cholmod-auto, "
               "eigen (Cholesky), qr (sparse QR of the whitened Jacobian, never forming H), cg "
-              "(conjugate gradients, spanning-tree preconditioner) or cg-jacobi (block-Jacobi); "
+              "(conjugate gradients, preconditioned by a spanning tree and the most strongly "
+              "coupled other blocks, within four times H's size) or cg-jacobi (block-Jacobi); "
               "ceres: auto (sparse Cholesky), qr (dense QR, small graphs) or cg (CGNR)");
   args.Flag("gn-no-chord", &a.gn_no_chord,
             "gn: factorise at every step (no steps with an earlier factorisation)");

@@ -2,18 +2,17 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
-#include <Eigen/SparseCholesky>
-#include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
+#include <string>
+
+#include "cairn/linear/cholmod_common.h"
 
 namespace cairn {
 namespace {
-
-using Sparse = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
 // The scalar unknowns split into the caller's blocks (or one block each).
 struct Blocks {
@@ -54,6 +53,117 @@ struct Forest {
   std::vector<int> parent;
 };
 
+// H's off-diagonal blocks as the edges of its block graph: each pair's
+// coupling relative to its two diagonal blocks (the spanning tree's weight)
+// and, per entry of H, its pair (-1 within a diagonal block).
+struct Couplings {
+  std::vector<std::pair<int, int>> pairs;  // (row block, column block), row < column
+  std::vector<double> weight;
+  std::vector<int> pair_of;
+};
+
+Couplings BlockCouplings(const Blocks& blocks, const std::vector<int>& col_ptr,
+                         const std::vector<int>& rows, const std::vector<double>& values) {
+  const int nb = blocks.count();
+  Couplings c;
+  std::vector<double> diag_norm(nb, 0.0), pair_norm;
+  c.pair_of.assign(values.size(), -1);
+  std::vector<int> pair_in_column(nb, -1);  // for the current column block
+  for (int bj = 0; bj < nb; ++bj) {
+    const size_t column_pairs = c.pairs.size();
+    for (int j = blocks.first[bj]; j < blocks.first[bj + 1]; ++j)
+      for (int k = col_ptr[j]; k < col_ptr[j + 1]; ++k) {
+        const int bi = blocks.of[rows[k]];
+        const double v2 = values[k] * values[k];
+        if (bi == bj) {
+          diag_norm[bj] += v2;
+          continue;
+        }
+        if (pair_in_column[bi] < 0) {
+          pair_in_column[bi] = static_cast<int>(c.pairs.size());
+          c.pairs.emplace_back(bi, bj);
+          pair_norm.push_back(0.0);
+        }
+        c.pair_of[k] = pair_in_column[bi];
+        pair_norm[c.pair_of[k]] += v2;
+      }
+    for (size_t p = column_pairs; p < c.pairs.size(); ++p) pair_in_column[c.pairs[p].first] = -1;
+  }
+  c.weight.resize(c.pairs.size());
+  for (size_t p = 0; p < c.pairs.size(); ++p)
+    c.weight[p] = std::sqrt(pair_norm[p] / std::max(std::sqrt(diag_norm[c.pairs[p].first] *
+                                                              diag_norm[c.pairs[p].second]),
+                                                    std::numeric_limits<double>::min()));
+  return c;
+}
+
+// The pairs by weight, heaviest first; Kruskal takes them into the tree.
+std::vector<int> HeaviestFirst(const Couplings& c) {
+  std::vector<int> order(c.pairs.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return c.weight[a] > c.weight[b]; });
+  return order;
+}
+
+// Nonzeros of the Cholesky factor of the block graph with the pairs marked
+// `in` (CHOLMOD's AMD analysis, blocks counted as one entry each).
+double BlockFactorNonZeros(int nb, const Couplings& c, const std::vector<bool>& in,
+                           CholmodCommon& cholmod) {
+  std::vector<std::vector<int>> above(nb);
+  size_t entries = nb;
+  for (size_t p = 0; p < c.pairs.size(); ++p)
+    if (in[p]) {
+      above[c.pairs[p].second].push_back(c.pairs[p].first);
+      ++entries;
+    }
+  cholmod_sparse* graph =
+      cholmod_allocate_sparse(nb, nb, entries, 1, 1, 1, CHOLMOD_PATTERN, cholmod.get());
+  if (!graph) return std::numeric_limits<double>::infinity();
+  int* gp = static_cast<int*>(graph->p);
+  int* gi = static_cast<int*>(graph->i);
+  gp[0] = 0;
+  for (int b = 0; b < nb; ++b) {
+    std::sort(above[b].begin(), above[b].end());
+    int k = gp[b];
+    for (int r : above[b]) gi[k++] = r;
+    gi[k++] = b;
+    gp[b + 1] = k;
+  }
+  cholmod_factor* f = cholmod_analyze(graph, cholmod.get());
+  const double lnz = f ? cholmod->lnz : std::numeric_limits<double>::infinity();
+  if (f) cholmod_free_factor(&f, cholmod.get());
+  cholmod_free_sparse(&graph, cholmod.get());
+  return lnz;
+}
+
+// Into the tree `in`, the heaviest other pairs, as many as keep the block
+// factor within `budget`: the longest such prefix of `order`, by bisection
+// (AMD's fill is not quite monotone in the prefix; close enough for a
+// budget). Returns how many were added.
+size_t AddWithinBudget(int nb, const Couplings& c, const std::vector<int>& order, double budget,
+                       std::vector<bool>* in) {
+  std::vector<int> others;
+  for (int p : order)
+    if (!(*in)[p]) others.push_back(p);
+  CholmodCommon cholmod;
+  auto with = [&](size_t m) {
+    std::vector<bool> trial = *in;
+    for (size_t k = 0; k < m; ++k) trial[others[k]] = true;
+    return trial;
+  };
+  size_t lo = 0, hi = others.size();
+  if (BlockFactorNonZeros(nb, c, with(hi), cholmod) > budget) {
+    while (hi - lo > 1) {
+      const size_t mid = lo + (hi - lo) / 2;
+      (BlockFactorNonZeros(nb, c, with(mid), cholmod) <= budget ? lo : hi) = mid;
+    }
+    hi = lo;
+  }
+  *in = with(hi);
+  return hi;
+}
+
 class ConjugateGradients final : public SparseCholesky {
  public:
   explicit ConjugateGradients(const ConjugateGradientsOptions& o) : options_(o) {}
@@ -65,53 +175,58 @@ class ConjugateGradients final : public SparseCholesky {
     rows_ = rows;
     values_.assign(rows.size(), 0.0);
     blocks_ = MakeBlocks(n, block_sizes);
-    tree_chosen_ = false;
-    use_tree_ = options_.preconditioner == Preconditioner::kSpanningTree;
+    block_sizes_ = block_sizes;
+    subgraph_.reset();
+    use_subgraph_ = options_.preconditioner != Preconditioner::kBlockJacobi;
   }
 
   double* values() override { return values_.data(); }
 
   bool Factorize() override {
     if (!FactorDiagonalBlocks()) return false;
-    if (!use_tree_) return true;
-    if (!tree_chosen_) ChooseTree();
-    for (size_t k = 0; k < tree_source_.size(); ++k) tree_.valuePtr()[k] = values_[tree_source_[k]];
-    tree_llt_.factorize(tree_);
+    if (!use_subgraph_) return true;
+    if (!subgraph_) ChooseSubgraph();
+    double* v = subgraph_->values();
+    for (size_t k = 0; k < subgraph_source_.size(); ++k) v[k] = values_[subgraph_source_[k]];
     // Not positive definite only when a residual joins three or more blocks.
-    if (tree_llt_.info() != Eigen::Success) use_tree_ = false;
+    if (!subgraph_->Factorize()) use_subgraph_ = false;
     return true;
   }
 
   void Solve(const double* b, double* x) override;
 
   long FactorNonZeros() const override {
+    if (use_subgraph_ && subgraph_) return subgraph_->FactorNonZeros();
     long nz = 0;
     for (int b = 0; b < blocks_.count(); ++b) nz += blocks_.size(b) * (blocks_.size(b) + 1) / 2;
-    if (use_tree_ && tree_chosen_) nz = static_cast<long>(tree_.nonZeros());
     return nz;
   }
   bool IsSupernodal() const override { return false; }
   std::string Method() const override {
-    return use_tree_ ? "conjugate gradients, spanning-tree preconditioner"
-                     : "conjugate gradients, block-Jacobi preconditioner";
+    if (!use_subgraph_) return "conjugate gradients, block-Jacobi preconditioner";
+    if (options_.preconditioner == Preconditioner::kSpanningTree)
+      return "conjugate gradients, spanning-tree preconditioner";
+    return "conjugate gradients, subgraph preconditioner (spanning tree and " +
+           std::to_string(extra_pairs_) + " of " + std::to_string(other_pairs_) +
+           " other blocks)";
   }
 
  private:
   bool FactorDiagonalBlocks();
-  void ChooseTree();
+  void ChooseSubgraph();
   void Multiply(const Eigen::VectorXd& x, Eigen::VectorXd* y) const;
   void Precondition(const Eigen::VectorXd& r, Eigen::VectorXd* z) const;
 
   const ConjugateGradientsOptions options_;
   int n_ = 0;
-  std::vector<int> col_ptr_, rows_;
+  std::vector<int> col_ptr_, rows_, block_sizes_;
   std::vector<double> values_;
   Blocks blocks_;
   std::vector<Eigen::LLT<Eigen::MatrixXd>> diagonal_;
-  bool use_tree_ = true, tree_chosen_ = false;
-  Sparse tree_;                   // H on the tree's pattern, upper triangle
-  std::vector<int> tree_source_;  // for each of tree_'s values, its index in values_
-  Eigen::SimplicialLLT<Sparse, Eigen::Upper> tree_llt_;
+  bool use_subgraph_ = true;
+  std::unique_ptr<SparseCholesky> subgraph_;  // H on the subgraph's pattern
+  std::vector<int> subgraph_source_;          // for each of its entries, its index in values_
+  size_t extra_pairs_ = 0, other_pairs_ = 0;
 };
 
 bool ConjugateGradients::FactorDiagonalBlocks() {
@@ -135,63 +250,34 @@ bool ConjugateGradients::FactorDiagonalBlocks() {
   return true;
 }
 
-// Kruskal on the block graph, heaviest relative coupling first; then the
-// tree's pattern (whole diagonal blocks and the tree's off-diagonal ones)
-// and its symbolic factorisation, once: later factorisations refill it.
-void ConjugateGradients::ChooseTree() {
+// Kruskal on the block graph, heaviest relative coupling first, then (for
+// kSubgraph) the heaviest other pairs within the budget; the subgraph's
+// pattern (whole diagonal blocks and the chosen off-diagonal ones) and its
+// analysis, once: later factorisations refill it.
+void ConjugateGradients::ChooseSubgraph() {
   const int nb = blocks_.count();
-  std::vector<double> diag_norm(nb, 0.0), pair_norm;
-  std::vector<std::pair<int, int>> pairs;  // (row block, column block), row < column
-  std::vector<int> pair_of(values_.size(), -1);
-  std::vector<int> pair_in_column(nb, -1);  // for the current column block
-  for (int bj = 0; bj < nb; ++bj) {
-    const size_t column_pairs = pairs.size();
-    for (int j = blocks_.first[bj]; j < blocks_.first[bj + 1]; ++j)
-      for (int k = col_ptr_[j]; k < col_ptr_[j + 1]; ++k) {
-        const int bi = blocks_.of[rows_[k]];
-        const double v2 = values_[k] * values_[k];
-        if (bi == bj) {
-          diag_norm[bj] += v2;
-          continue;
-        }
-        if (pair_in_column[bi] < 0) {
-          pair_in_column[bi] = static_cast<int>(pairs.size());
-          pairs.emplace_back(bi, bj);
-          pair_norm.push_back(0.0);
-        }
-        pair_of[k] = pair_in_column[bi];
-        pair_norm[pair_of[k]] += v2;
-      }
-    for (size_t p = column_pairs; p < pairs.size(); ++p) pair_in_column[pairs[p].first] = -1;
-  }
-  std::vector<double> weight(pairs.size());
-  for (size_t p = 0; p < pairs.size(); ++p)
-    weight[p] = std::sqrt(pair_norm[p] / std::max(std::sqrt(diag_norm[pairs[p].first] *
-                                                            diag_norm[pairs[p].second]),
-                                                  std::numeric_limits<double>::min()));
-  std::vector<int> order(pairs.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return weight[a] > weight[b]; });
+  const Couplings c = BlockCouplings(blocks_, col_ptr_, rows_, values_);
+  const std::vector<int> order = HeaviestFirst(c);
   Forest forest(nb);
-  std::vector<bool> in_tree(pairs.size(), false);
-  for (int p : order) in_tree[p] = forest.Join(pairs[p].first, pairs[p].second);
-  std::vector<Eigen::Triplet<double, int>> entries;
-  std::vector<int> kept;
-  for (int j = 0; j < n_; ++j)
+  std::vector<bool> in(c.pairs.size(), false);
+  for (int p : order) in[p] = forest.Join(c.pairs[p].first, c.pairs[p].second);
+  other_pairs_ = c.pairs.size() - std::count(in.begin(), in.end(), true);
+  extra_pairs_ = 0;
+  if (options_.preconditioner == Preconditioner::kSubgraph)
+    extra_pairs_ = AddWithinBudget(
+        nb, c, order, options_.subgraph_fill * static_cast<double>(nb + c.pairs.size()), &in);
+  std::vector<int> col_ptr{0}, rows;
+  subgraph_source_.clear();
+  for (int j = 0; j < n_; ++j) {
     for (int k = col_ptr_[j]; k < col_ptr_[j + 1]; ++k)
-      if (pair_of[k] < 0 || in_tree[pair_of[k]]) {
-        entries.emplace_back(rows_[k], j, static_cast<double>(kept.size()));
-        kept.push_back(k);
+      if (c.pair_of[k] < 0 || in[c.pair_of[k]]) {
+        rows.push_back(rows_[k]);
+        subgraph_source_.push_back(k);
       }
-  tree_.resize(n_, n_);
-  tree_.setFromTriplets(entries.begin(), entries.end());
-  tree_.makeCompressed();
-  // The triplets carried each entry's place in `kept` as its value.
-  tree_source_.resize(kept.size());
-  for (Eigen::Index k = 0; k < tree_.nonZeros(); ++k)
-    tree_source_[k] = kept[static_cast<size_t>(tree_.valuePtr()[k])];
-  tree_llt_.analyzePattern(tree_);
-  tree_chosen_ = true;
+    col_ptr.push_back(static_cast<int>(rows.size()));
+  }
+  subgraph_ = SparseCholesky::Create(Factorization::kSupernodalOrSimplicial);
+  subgraph_->Analyze(n_, col_ptr, rows, block_sizes_);
 }
 
 // y = H x from the upper triangle.
@@ -215,8 +301,9 @@ void ConjugateGradients::Multiply(const Eigen::VectorXd& x, Eigen::VectorXd* y) 
 }
 
 void ConjugateGradients::Precondition(const Eigen::VectorXd& r, Eigen::VectorXd* z) const {
-  if (use_tree_) {
-    *z = tree_llt_.solve(r);
+  if (use_subgraph_) {
+    z->resize(n_);
+    subgraph_->Solve(r.data(), z->data());
     return;
   }
   z->resize(n_);

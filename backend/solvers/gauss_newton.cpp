@@ -1435,6 +1435,9 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   if (!s.done)
     s.Finish("no_convergence",
              "iteration limit reached (" + std::to_string(options.max_iterations) + ")", false);
+  // Conjugate gradients choose their preconditioner at the first factorisation.
+  if (w.linear_solver == CholeskyKind::kConjugateGradients && w.cholesky)
+    result.linear_solver = std::string(ToString(w.linear_solver)) + ": " + w.cholesky->Method();
   return result;
 }
 

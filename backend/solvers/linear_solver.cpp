@@ -42,7 +42,7 @@ const char* ToString(CholeskyKind kind) {
     case CholeskyKind::kEigenLDLT: return "eigen-ldlt";
     case CholeskyKind::kTwoHalves: return "cholmod-parallel";
     case CholeskyKind::kQR: return "spqr";
-    case CholeskyKind::kConjugateGradients: return "cg-spanning-tree";
+    case CholeskyKind::kConjugateGradients: return "cg-subgraph";
     case CholeskyKind::kConjugateGradientsJacobi: return "cg-block-jacobi";
   }
   return "?";

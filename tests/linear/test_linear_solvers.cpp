@@ -1,10 +1,12 @@
 // The two other ways to solve the Gauss-Newton step: conjugate gradients
-// (both preconditioners) on H, and sparse QR on the Jacobian itself, each
+// (each preconditioner) on H, and sparse QR on the Jacobian itself, each
 // against a dense solve of the same system.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 #include <random>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "cairn/linear/conjugate_gradients.h"
@@ -58,12 +60,35 @@ GraphMatrix MakeGraphMatrix(int blocks, int loops, unsigned seed) {
   return g;
 }
 
-TEST(ConjugateGradients, BothPreconditionersSolveAPoseGraphsNormalEquations) {
-  for (Preconditioner pre : {Preconditioner::kBlockJacobi, Preconditioner::kSpanningTree}) {
+// The subgraph preconditioner's "N of M other blocks" from its Method().
+std::pair<int, int> SubgraphBlocks(const std::string& method) {
+  const size_t at = method.find(" other blocks");
+  if (at == std::string::npos) return {-1, -1};
+  const size_t of = method.rfind(" of ", at);
+  const size_t from = method.rfind(' ', of - 1);
+  return {std::stoi(method.substr(from + 1, of - from - 1)),
+          std::stoi(method.substr(of + 4, at - of - 4))};
+}
+
+struct CgCase {
+  Preconditioner preconditioner;
+  double subgraph_fill;
+  const char* method;  // what Method() names
+};
+
+TEST(ConjugateGradients, EveryPreconditionerSolvesAPoseGraphsNormalEquations) {
+  // The subgraph with a budget that takes some of the other blocks, and
+  // with one that takes them all (then H is its own preconditioner).
+  const CgCase cases[] = {{Preconditioner::kBlockJacobi, 4, "block-Jacobi"},
+                          {Preconditioner::kSpanningTree, 4, "spanning-tree"},
+                          {Preconditioner::kSubgraph, 1.3, "subgraph"},
+                          {Preconditioner::kSubgraph, 100, "subgraph"}};
+  for (const CgCase& c : cases) {
     for (unsigned seed : {1u, 2u, 3u}) {
       const GraphMatrix g = MakeGraphMatrix(120, 60, seed);
       ConjugateGradientsOptions o;
-      o.preconditioner = pre;
+      o.preconditioner = c.preconditioner;
+      o.subgraph_fill = c.subgraph_fill;
       auto cg = CreateConjugateGradients(o);
       const int n = static_cast<int>(g.h.rows());
       cg->Analyze(n, g.col_ptr, g.rows, std::vector<int>(n / 3, 3));
@@ -78,10 +103,22 @@ TEST(ConjugateGradients, BothPreconditionersSolveAPoseGraphsNormalEquations) {
       // is): it must be within 1e-10 of the exact one; the step itself then
       // within about the square root of that times the condition number.
       auto model = [&](const Eigen::VectorXd& v) { return 0.5 * v.dot(g.h * v) - b.dot(v); };
-      EXPECT_NEAR(model(x) / model(exact), 1.0, 1e-10) << cg->Method() << ", seed " << seed;
-      EXPECT_LT((x - exact).norm(), 1e-4 * exact.norm()) << cg->Method() << ", seed " << seed;
-      const bool tree = cg->Method().find("spanning-tree") != std::string::npos;
-      EXPECT_EQ(tree, pre == Preconditioner::kSpanningTree) << cg->Method();
+      const std::string method = cg->Method();
+      EXPECT_NEAR(model(x) / model(exact), 1.0, 1e-10) << method << ", seed " << seed;
+      EXPECT_LT((x - exact).norm(), 1e-4 * exact.norm()) << method << ", seed " << seed;
+      EXPECT_NE(method.find(c.method), std::string::npos) << method;
+      if (c.preconditioner != Preconditioner::kSubgraph) continue;
+      const auto [taken, others] = SubgraphBlocks(method);
+      ASSERT_GT(others, 0) << method;
+      if (c.subgraph_fill > 10) {
+        EXPECT_EQ(taken, others) << method;
+        // Its own preconditioner: the first step is exact.
+        EXPECT_LT((x - exact).norm(), 1e-10 * exact.norm()) << method;
+      } else {
+        EXPECT_GT(taken, 0) << method;
+        EXPECT_LT(taken, others) << method;
+        EXPECT_LE(cg->FactorNonZeros(), 1.3 * 9 * (n / 3 + others + n / 3)) << method;
+      }
     }
   }
 }

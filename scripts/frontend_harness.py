@@ -4,6 +4,11 @@
     scripts/frontend_harness.py make LOG.gz CASE OUT.log [--seed S]
     scripts/frontend_harness.py run CAIRN LOG.gz... [--cases a,b] [--seeds 1,2] [--out DIR] [--jobs N]
 
+A LOG given as sim:SEEDS (sim:3, sim:1-8, sim:1,4,9) stands for the simulated
+buildings of those seeds (`cairn simulate --laser-log`, written to the out
+directory as simN.log): logs whose reference poses are the ground truth, of
+buildings the front-end was never tuned on.
+
 `make` writes one perturbed log; `run` makes every case of every log (and
 seed) and prints a Markdown table of `cairn map`'s ATE against the log's own
 reference poses, with the default settings, next to the plain log's.
@@ -203,8 +208,33 @@ def run_one(job):
     return ate_of(cairn, path, path[:-4])
 
 
+def seeds_of(text):
+    """1-8 or 1,4,9 (or both mixed) as a list of ints."""
+    out = []
+    for part in text.split(","):
+        lo, _, hi = part.partition("-")
+        out.extend(range(int(lo), int(hi or lo) + 1))
+    return out
+
+
+def expand_logs(cairn, logs, out):
+    """Real logs as they are; sim:SEEDS simulated into `out`."""
+    paths = []
+    for log in logs:
+        if not log.startswith("sim:"):
+            paths.append(log)
+            continue
+        for seed in seeds_of(log[4:]):
+            path = os.path.join(out, "sim%d.log" % seed)
+            subprocess.run([cairn, "simulate", "--laser-log", path, "--seed", str(seed)],
+                           check=True, capture_output=True)
+            paths.append(path)
+    return paths
+
+
 def run(args):
     os.makedirs(args.out, exist_ok=True)
+    args.logs = expand_logs(args.cairn, args.logs, args.out)
     cases = args.cases.split(",")
     seeds = [int(s) for s in args.seeds.split(",")]
     print("| log | plain | " + " | ".join("%s s%d" % (c, s) if len(seeds) > 1 else c

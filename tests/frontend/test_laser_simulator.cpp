@@ -1,0 +1,88 @@
+// The simulated laser logs: what they say reads back as simulated, and the
+// front-end maps a simulated building against its truth.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "cairn/frontend/carmen_log.h"
+#include "cairn/frontend/laser_simulator.h"
+#include "cairn/frontend/mapper.h"
+#include "test_util.h"
+
+namespace cairn::frontend {
+namespace {
+
+std::string WriteLog(const LaserSimulation& sim, const std::string& name) {
+  const std::string path = testing::TempDir() + "/" + name;
+  std::ofstream os(path);
+  WriteCarmenLog(sim, os);
+  return path;
+}
+
+TEST(LaserSimulator, LogReadsBackAsSimulated) {
+  LaserSimulationOptions o;
+  o.path_length = 60;
+  const LaserSimulation sim = SimulateLaserLog(o);
+  ASSERT_GT(sim.truth.size(), 40u);
+  ASSERT_EQ(sim.odometry.size(), sim.truth.size());
+  const CarmenLog log = ReadCarmenLog(WriteLog(sim, "sim_readback.log"));
+  ASSERT_EQ(log.scans.size(), sim.truth.size());
+  int hits = 0;
+  for (size_t k = 0; k < log.scans.size(); ++k) {
+    const LaserScan& s = log.scans[k];
+    ASSERT_EQ(s.ranges.size(), 181u);
+    EXPECT_NEAR(s.angle_min, -M_PI / 2, 1e-9);
+    EXPECT_NEAR(s.angle_increment, M_PI / 180, 1e-9);
+    EXPECT_NEAR(s.reference.x(), sim.truth[k].x(), 1e-6);
+    EXPECT_NEAR(s.reference.y(), sim.truth[k].y(), 1e-6);
+    EXPECT_NEAR(NormalizeAngle(s.reference.theta() - sim.truth[k].theta()), 0, 1e-6);
+    if (k > 0) {
+      EXPECT_TRUE(s.odometry_measured);
+      EXPECT_NEAR(s.odometry_increment.x(), sim.odometry[k].x(), 1e-5) << k;
+      EXPECT_NEAR(s.odometry_increment.y(), sim.odometry[k].y(), 1e-5) << k;
+      EXPECT_NEAR(NormalizeAngle(s.odometry_increment.theta() - sim.odometry[k].theta()), 0, 1e-5);
+    }
+    for (float r : s.ranges) {
+      EXPECT_GE(r, 0.f);
+      hits += r < o.max_range;
+    }
+  }
+  EXPECT_GT(hits, static_cast<int>(log.scans.size()) * 150);  // indoors: most beams hit a wall
+}
+
+TEST(LaserSimulator, SeedDecidesTheBuilding) {
+  LaserSimulationOptions o;
+  o.path_length = 30;
+  const LaserSimulation a = SimulateLaserLog(o), b = SimulateLaserLog(o);
+  o.seed = 2;
+  const LaserSimulation c = SimulateLaserLog(o);
+  EXPECT_EQ(a.ranges, b.ranges);
+  EXPECT_NE(a.ranges, c.ranges);
+  EXPECT_TRUE(a.width != c.width || a.height != c.height);
+}
+
+// The odometry is several metres off by the end; the front-end must not be.
+TEST(LaserSimulator, MapperFollowsTheTruth) {
+  for (uint64_t seed : {1u, 3u}) {
+    LaserSimulationOptions o;
+    o.seed = seed;
+    o.path_length = 100;
+    const LaserSimulation sim = SimulateLaserLog(o);
+    const CarmenLog log = ReadCarmenLog(WriteLog(sim, "sim_map.log"));
+    const MapResult res = BuildPoseGraph(log, MapperOptions{});
+    ASSERT_EQ(res.scan_poses.size(), sim.truth.size());
+    double worst = 0, worst_dr = 0;
+    for (size_t k = 0; k < sim.truth.size(); ++k) {
+      const SE2 truth = sim.truth.front().Between(sim.truth[k]);
+      worst = std::max(worst, (res.scan_poses[k].translation() - truth.translation()).norm());
+      worst_dr = std::max(worst_dr, (res.dead_reckoning[k].translation() - truth.translation()).norm());
+    }
+    EXPECT_GT(worst_dr, 0.5) << seed;
+    EXPECT_LT(worst, 0.15) << seed;
+  }
+}
+
+}  // namespace
+}  // namespace cairn::frontend

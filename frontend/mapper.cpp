@@ -101,6 +101,34 @@ double ContradictedShare(const OccupancyGrid& grid, const PointCloud& cloud, con
   return cloud.size() ? static_cast<double>(contradicted) / cloud.size() : 0.0;
 }
 
+// The share of the scan's beams, from `pose`, that pass through a wall the
+// grid holds (a cell hit more than once) more than 30 cm before their own
+// end: a scan placed where it would see through known walls. A wrong pose
+// that fits some walls well (a crossing turned by a quarter, a corridor
+// shifted to the next door) rarely passes this: its other beams cross the
+// walls the local map has seen.
+double SeeThroughShare(const OccupancyGrid& grid, const PointCloud& cloud, const SE2& pose) {
+  constexpr float kWall = 1.2f;
+  constexpr double kMargin = 0.3;
+  const Eigen::Vector2d from = pose.translation();
+  const double step = 0.5 * grid.resolution();
+  size_t through = 0;
+  for (const Eigen::Vector2d& p : cloud.points) {
+    const Eigen::Vector2d to = pose * p;
+    const double len = (to - from).norm() - kMargin;
+    if (len <= 0) continue;
+    const Eigen::Vector2d dir = (to - from).normalized();
+    for (double t = 0; t < len; t += step) {
+      int cx, cy;
+      if (grid.Cell(from + t * dir, &cx, &cy) && grid.LogOdds(cx, cy) > kWall) {
+        ++through;
+        break;
+      }
+    }
+  }
+  return cloud.size() ? static_cast<double>(through) / cloud.size() : 0.0;
+}
+
 // BuildPoseGraph's state as it walks the log, one method per stage:
 // tracking each scan, keyframes, loop closures, optimisation.
 class GraphBuilder {
@@ -393,11 +421,14 @@ class GraphBuilder {
   }
 
   // The scan at `pose` puts at least a tenth more of its points in space
-  // the local map's keyframes saw through than at the odometry's prediction.
+  // the local map's keyframes saw through than at the odometry's prediction,
+  // or sees through the local map's walls with a tenth more of its beams.
   bool ContradictsOdometry(const PointCloud& cloud, const SE2& pose, const SE2& predicted) const {
     constexpr double kContradicted = 0.1;
-    return ContradictedShare(LocalFreeSpace(), cloud, pose) >=
-           ContradictedShare(LocalFreeSpace(), cloud, predicted) + kContradicted;
+    const OccupancyGrid& free = LocalFreeSpace();
+    return ContradictedShare(free, cloud, pose) >=
+               ContradictedShare(free, cloud, predicted) + kContradicted ||
+           SeeThroughShare(free, cloud, pose) >= SeeThroughShare(free, cloud, predicted) + kContradicted;
   }
 
   // A doubted narrow match (at the window's edge, or a move no base makes)

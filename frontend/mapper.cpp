@@ -109,7 +109,10 @@ double ContradictedShare(const OccupancyGrid& grid, const PointCloud& cloud, con
 // walls the local map has seen.
 double SeeThroughShare(const OccupancyGrid& grid, const PointCloud& cloud, const SE2& pose) {
   constexpr float kWall = 1.2f;
-  constexpr double kMargin = 0.3;
+  // Not within 25 cm of the sensor either: the robot stands in free space,
+  // and a wall cell there is a stray point's (a leg, a cable), which every
+  // beam would cross.
+  constexpr double kMargin = 0.3, kStart = 0.25;
   const Eigen::Vector2d from = pose.translation();
   const double step = 0.5 * grid.resolution();
   size_t through = 0;
@@ -118,7 +121,7 @@ double SeeThroughShare(const OccupancyGrid& grid, const PointCloud& cloud, const
     const double len = (to - from).norm() - kMargin;
     if (len <= 0) continue;
     const Eigen::Vector2d dir = (to - from).normalized();
-    for (double t = 0; t < len; t += step) {
+    for (double t = kStart; t < len; t += step) {
       int cx, cy;
       if (grid.Cell(from + t * dir, &cx, &cy) && grid.LogOdds(cx, cy) > kWall) {
         ++through;
@@ -259,6 +262,24 @@ class GraphBuilder {
     return match.has_value();
   }
 
+  // The share of the scan's beams through the local map's walls at `pose`
+  // is 0.15 above the median of the last 50 shares asked that were not
+  // (0.02-0.05 over every scan of the shared logs; 0.05 until ten).
+  bool SeesThrough(const PointCloud& cloud, const SE2& pose) {
+    constexpr double kAbove = 0.15;
+    const double share = SeeThroughShare(LocalFreeSpace(), cloud, pose);
+    double typical = 0.05;
+    if (recent_see_through_.size() >= 10) {
+      std::vector<double> v(recent_see_through_.begin(), recent_see_through_.end());
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      typical = v[v.size() / 2];
+    }
+    if (share >= typical + kAbove) return true;
+    recent_see_through_.push_back(share);
+    if (recent_see_through_.size() > 50) recent_see_through_.pop_front();
+    return false;
+  }
+
   // Within one odometry step's error of each other.
   static bool Near(const SE2& a, const SE2& b) {
     const SE2 d = a.Between(b);
@@ -271,11 +292,14 @@ class GraphBuilder {
     return icp.converged && icp.inlier_fraction >= o_.track_min_inliers;
   }
   bool Good(const IcpResult& icp) const {
-    if (!Acceptable(icp)) return false;
-    if (recent_inliers_.size() < 10) return true;
+    return Acceptable(icp) && icp.inlier_fraction >= o_.track_relative_inliers * RecentInliers();
+  }
+  // The median inlier fraction of the last good matches (0 before ten).
+  double RecentInliers() const {
+    if (recent_inliers_.size() < 10) return 0;
     std::vector<double> v(recent_inliers_.begin(), recent_inliers_.end());
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return icp.inlier_fraction >= o_.track_relative_inliers * v[v.size() / 2];
+    return v[v.size() / 2];
   }
 
   // The tracking window: the options', widened (up to 3 times) when the
@@ -315,7 +339,16 @@ class GraphBuilder {
         Near(predicted, narrow.pose) ? 0.0
                                      : ContradictedShare(LocalFreeSpace(), cloud, narrow.pose);
     const double contradicted = in_free_space >= 0.15 ? in_free_space : 0.0;
-    const bool suspect = implausible || contradicted > 0;
+    // A match whose beams cross walls the local map holds, more than the
+    // matches here have lately, has turned or slid onto a twin (a crossing
+    // turned by a quarter fits nearly as well as the true pose).
+    // (Asked only of a match that left the prediction or fits below the
+    // recent median by a tenth: the free-space grid and the rays cost a
+    // third of the tracking's time when asked of every scan.)
+    const bool sees_through =
+        (!Near(predicted, narrow.pose) || narrow.inlier_fraction < 0.9 * RecentInliers()) &&
+        SeesThrough(cloud, narrow.pose);
+    const bool suspect = implausible || contradicted > 0 || sees_through;
     if (narrow_good && !at_edge && !suspect) return narrow;
     ++res_.stats.wide_searches;
     const Choice c =
@@ -810,6 +843,7 @@ class GraphBuilder {
   const CarmenLog& log_;
   const MapperOptions& o_;
   std::ostream* progress_;
+  std::deque<double> recent_see_through_;  // SeesThrough's recent shares
   std::deque<double> recent_inliers_;  // of the last good matches
   std::deque<double> recent_turn_, recent_shift_;  // their distances from the prediction
   bool lost_since_keyframe_ = false;

@@ -236,7 +236,7 @@ def run(args):
     os.makedirs(args.out, exist_ok=True)
     args.logs = expand_logs(args.cairn, args.logs, args.out)
     cases = args.cases.split(",")
-    seeds = [int(s) for s in args.seeds.split(",")]
+    seeds = seeds_of(args.seeds)
     print("| log | plain | " + " | ".join("%s s%d" % (c, s) if len(seeds) > 1 else c
                                            for c in cases for s in seeds) + " |")
     print("| --- " * (2 + len(cases) * len(seeds)) + "|")

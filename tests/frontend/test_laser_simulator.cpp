@@ -21,6 +21,21 @@ std::string WriteLog(const LaserSimulation& sim, const std::string& name) {
   return path;
 }
 
+// The largest position and heading errors of the mapper's scan poses
+// against the truth, both in the first scan's frame.
+struct Errors {
+  double position = 0, heading = 0;
+};
+Errors AgainstTruth(const LaserSimulation& sim, const MapResult& res) {
+  Errors e;
+  for (size_t k = 0; k < sim.truth.size(); ++k) {
+    const SE2 truth = sim.truth.front().Between(sim.truth[k]);
+    e.position = std::max(e.position, (res.scan_poses[k].translation() - truth.translation()).norm());
+    e.heading = std::max(e.heading, std::abs(NormalizeAngle(res.scan_poses[k].theta() - truth.theta())));
+  }
+  return e;
+}
+
 TEST(LaserSimulator, LogReadsBackAsSimulated) {
   LaserSimulationOptions o;
   o.path_length = 60;
@@ -103,14 +118,9 @@ TEST(LaserSimulator, SkippedScansDoNotTurnTheMap) {
     }
     const MapResult res =
         BuildPoseGraph(ReadCarmenLog(WriteLog(sim, "sim_skip.log")), MapperOptions{});
-    double worst = 0, worst_turn = 0;
-    for (size_t k = 0; k < sim.truth.size(); ++k) {
-      const SE2 truth = sim.truth.front().Between(sim.truth[k]);
-      worst = std::max(worst, (res.scan_poses[k].translation() - truth.translation()).norm());
-      worst_turn = std::max(worst_turn, std::abs(NormalizeAngle(res.scan_poses[k].theta() - truth.theta())));
-    }
-    EXPECT_LT(worst, 0.4) << seed;
-    EXPECT_LT(worst_turn, 0.05) << seed;
+    const Errors e = AgainstTruth(sim, res);
+    EXPECT_LT(e.position, 0.4) << seed;
+    EXPECT_LT(e.heading, 0.05) << seed;
     EXPECT_GE(res.stats.vetoed, 1u) << seed;
   }
 }
@@ -128,14 +138,9 @@ TEST(LaserSimulator, GlitchAtACrossingIsNotMatchedToItsTurnedTwin) {
   sim.odometry[124] = sim.odometry[124] * SE2(0, 0, -85 * M_PI / 180);
   const MapResult res =
       BuildPoseGraph(ReadCarmenLog(WriteLog(sim, "sim_glitch.log")), MapperOptions{});
-  double worst = 0, worst_turn = 0;
-  for (size_t k = 0; k < sim.truth.size(); ++k) {
-    const SE2 truth = sim.truth.front().Between(sim.truth[k]);
-    worst = std::max(worst, (res.scan_poses[k].translation() - truth.translation()).norm());
-    worst_turn = std::max(worst_turn, std::abs(NormalizeAngle(res.scan_poses[k].theta() - truth.theta())));
-  }
-  EXPECT_LT(worst, 0.4);
-  EXPECT_LT(worst_turn, 0.05);
+  const Errors e = AgainstTruth(sim, res);
+  EXPECT_LT(e.position, 0.4);
+  EXPECT_LT(e.heading, 0.05);
   EXPECT_GE(res.stats.wide_searches, 1u);
 }
 

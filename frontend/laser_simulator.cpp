@@ -44,7 +44,8 @@ class Raster {
     if (Solid(i, j)) return 0;
     const int si = dx > 0 ? 1 : -1, sj = dy > 0 ? 1 : -1;
     const double inf = std::numeric_limits<double>::infinity();
-    const double tdx = dx != 0 ? kCell / std::abs(dx) : inf, tdy = dy != 0 ? kCell / std::abs(dy) : inf;
+    const double tdx = dx != 0 ? kCell / std::abs(dx) : inf,
+                 tdy = dy != 0 ? kCell / std::abs(dy) : inf;
     double tx = dx != 0 ? ((i + (si > 0)) * kCell - x) / dx : inf;
     double ty = dy != 0 ? ((j + (sj > 0)) * kCell - y) / dy : inf;
     for (;;) {
@@ -70,8 +71,12 @@ class Raster {
 
 struct Rng {
   explicit Rng(uint64_t seed) : engine(seed) {}
-  double Uniform(double a, double b) { return std::uniform_real_distribution<double>(a, b)(engine); }
-  double Normal(double sigma) { return sigma > 0 ? std::normal_distribution<double>(0, sigma)(engine) : 0; }
+  double Uniform(double a, double b) {
+    return std::uniform_real_distribution<double>(a, b)(engine);
+  }
+  double Normal(double sigma) {
+    return sigma > 0 ? std::normal_distribution<double>(0, sigma)(engine) : 0;
+  }
   int Int(int a, int b) { return std::uniform_int_distribution<int>(a, b)(engine); }
   std::mt19937_64 engine;
 };
@@ -99,7 +104,8 @@ struct Building {
 void Corridors(Rng& rng, int count, double lo, double hi, std::vector<double>* at,
                std::vector<double>* width) {
   for (int k = 0; k < count; ++k) {
-    at->push_back(lo + k * (hi - lo) / (count - 1) + (k > 0 && k + 1 < count ? rng.Uniform(-1, 1) : 0));
+    at->push_back(lo + k * (hi - lo) / (count - 1) +
+                  (k > 0 && k + 1 < count ? rng.Uniform(-1, 1) : 0));
     width->push_back(rng.Uniform(1.6, 2.6));
   }
 }
@@ -192,15 +198,18 @@ void CorridorClutter(Rng& rng, Raster& raster, const Building& b) {
     const bool vertical = rng.Int(0, 1);
     const size_t k = rng.Int(0, static_cast<int>((vertical ? b.xs : b.ys).size()) - 1);
     const double c = vertical ? b.xs[k] : b.ys[k], half = (vertical ? b.xw[k] : b.yw[k]) / 2;
-    const double lo = vertical ? b.ys.front() : b.xs.front(), hi = vertical ? b.ys.back() : b.xs.back();
+    const double lo = vertical ? b.ys.front() : b.xs.front(),
+                 hi = vertical ? b.ys.back() : b.xs.back();
     const double along = rng.Uniform(lo, hi), len = rng.Uniform(0.3, 1.0);
     const double depth = rng.Uniform(0.1, std::min(0.35, half - 0.5));
     const double side = rng.Int(0, 1) ? 1 : -1;
     const Eigen::Vector2d p = vertical ? Eigen::Vector2d(c, along) : Eigen::Vector2d(along, c);
     if (!clear(p) || depth <= 0.05) continue;
     const double a0 = side > 0 ? c + half - depth : c - half, a1 = a0 + depth;
-    if (vertical) raster.Fill(a0, along, a1, along + len, true);
-    else raster.Fill(along, a0, along + len, a1, true);
+    if (vertical)
+      raster.Fill(a0, along, a1, along + len, true);
+    else
+      raster.Fill(along, a0, along + len, a1, true);
   }
 }
 
@@ -209,7 +218,8 @@ Building MakeBuilding(Rng& rng, Raster** raster_out, std::unique_ptr<Raster>* ke
   b.width = rng.Uniform(24, 48);
   b.height = rng.Uniform(16, 32);
   // Blocks of 6 to 16 m between corridors.
-  const int nx = rng.Int(std::max(2, static_cast<int>(b.width / 16) + 1), static_cast<int>(b.width / 8) + 1);
+  const int nx =
+      rng.Int(std::max(2, static_cast<int>(b.width / 16) + 1), static_cast<int>(b.width / 8) + 1);
   const int ny = rng.Int(2, std::max(2, static_cast<int>(b.height / 8) + 1));
   Corridors(rng, nx, kMargin + 1.5, kMargin + b.width - 1.5, &b.xs, &b.xw);
   Corridors(rng, ny, kMargin + 1.5, kMargin + b.height - 1.5, &b.ys, &b.yw);
@@ -262,8 +272,8 @@ std::vector<Eigen::Vector2d> Route(Rng& rng, const Building& b, double length) {
     for (const Room* r : on) {
       const Eigen::Vector2d inward = (r->door - r->front).normalized();
       const Eigen::Vector2d centre((r->x0 + r->x1) / 2, (r->y0 + r->y1) / 2);
-      for (const Eigen::Vector2d& p :
-           {r->front, Eigen::Vector2d(r->door + 0.6 * inward), centre, Eigen::Vector2d(r->door + 0.6 * inward), r->front}) {
+      for (const Eigen::Vector2d& p : {r->front, Eigen::Vector2d(r->door + 0.6 * inward), centre,
+                                       Eigen::Vector2d(r->door + 0.6 * inward), r->front}) {
         total += (p - route.back()).norm();
         route.push_back(p);
       }
@@ -280,7 +290,8 @@ std::vector<Eigen::Vector2d> Route(Rng& rng, const Building& b, double length) {
 // scan_turn radians.
 std::vector<SE2> Drive(const std::vector<Eigen::Vector2d>& route, const LaserSimulationOptions& o) {
   const double dt = 0.05, v_max = 0.6, w_max = 0.8;
-  Eigen::Vector2d d = route.size() > 1 ? Eigen::Vector2d(route[1] - route[0]) : Eigen::Vector2d(1, 0);
+  Eigen::Vector2d d =
+      route.size() > 1 ? Eigen::Vector2d(route[1] - route[0]) : Eigen::Vector2d(1, 0);
   SE2 pose(route[0].x(), route[0].y(), std::atan2(d.y(), d.x()));
   std::vector<SE2> scans{pose};
   double moved = 0, turned = 0;
@@ -309,15 +320,18 @@ std::vector<float> Scan(const Raster& raster, const SE2& pose, const LaserSimula
   std::vector<float> ranges(o.beams);
   const double step = o.fov / (o.beams - 1);
   for (int b = 0; b < o.beams; ++b) {
-    const double r = raster.Cast(pose.x(), pose.y(), pose.theta() - o.fov / 2 + b * step, o.max_range);
-    ranges[b] = static_cast<float>(r >= o.max_range ? o.max_range
-                                                    : std::clamp(r + rng.Normal(o.range_noise), 0.0, o.max_range - 0.01));
+    const double r =
+        raster.Cast(pose.x(), pose.y(), pose.theta() - o.fov / 2 + b * step, o.max_range);
+    ranges[b] = static_cast<float>(
+        r >= o.max_range ? o.max_range
+                         : std::clamp(r + rng.Normal(o.range_noise), 0.0, o.max_range - 0.01));
   }
   return ranges;
 }
 
 // Wheel odometry of each step: a systematic error drawn once, and noise.
-std::vector<SE2> Odometry(const std::vector<SE2>& truth, const LaserSimulationOptions& o, Rng& rng) {
+std::vector<SE2> Odometry(const std::vector<SE2>& truth, const LaserSimulationOptions& o,
+                          Rng& rng) {
   const double scale = 1 + rng.Uniform(-o.scale_error, o.scale_error);
   const double turn_scale = 1 + rng.Uniform(-o.turn_scale_error, o.turn_scale_error);
   const double bias = rng.Uniform(-o.heading_bias_per_m, o.heading_bias_per_m);
@@ -326,7 +340,8 @@ std::vector<SE2> Odometry(const std::vector<SE2>& truth, const LaserSimulationOp
     const SE2 u = truth[k - 1].Between(truth[k]);
     const double d = u.translation().norm();
     const double sigma = o.translation_noise * d + 0.002;
-    odometry.emplace_back(scale * u.x() + rng.Normal(sigma), scale * u.y() + rng.Normal(0.5 * sigma),
+    odometry.emplace_back(scale * u.x() + rng.Normal(sigma),
+                          scale * u.y() + rng.Normal(0.5 * sigma),
                           NormalizeAngle(turn_scale * u.theta() + bias * d +
                                          rng.Normal(o.rotation_noise * std::abs(u.theta()) +
                                                     o.heading_noise_per_m * d + 0.002)));

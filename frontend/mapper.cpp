@@ -461,7 +461,8 @@ class GraphBuilder {
     const OccupancyGrid& free = LocalFreeSpace();
     return ContradictedShare(free, cloud, pose) >=
                ContradictedShare(free, cloud, predicted) + kContradicted ||
-           SeeThroughShare(free, cloud, pose) >= SeeThroughShare(free, cloud, predicted) + kContradicted;
+           SeeThroughShare(free, cloud, pose) >=
+               SeeThroughShare(free, cloud, predicted) + kContradicted;
   }
 
   // A doubted narrow match (at the window's edge, or a move no base makes)

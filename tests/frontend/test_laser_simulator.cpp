@@ -30,8 +30,10 @@ Errors AgainstTruth(const LaserSimulation& sim, const MapResult& res) {
   Errors e;
   for (size_t k = 0; k < sim.truth.size(); ++k) {
     const SE2 truth = sim.truth.front().Between(sim.truth[k]);
-    e.position = std::max(e.position, (res.scan_poses[k].translation() - truth.translation()).norm());
-    e.heading = std::max(e.heading, std::abs(NormalizeAngle(res.scan_poses[k].theta() - truth.theta())));
+    e.position =
+        std::max(e.position, (res.scan_poses[k].translation() - truth.translation()).norm());
+    e.heading =
+        std::max(e.heading, std::abs(NormalizeAngle(res.scan_poses[k].theta() - truth.theta())));
   }
   return e;
 }
@@ -92,7 +94,8 @@ TEST(LaserSimulator, MapperFollowsTheTruth) {
     for (size_t k = 0; k < sim.truth.size(); ++k) {
       const SE2 truth = sim.truth.front().Between(sim.truth[k]);
       worst = std::max(worst, (res.scan_poses[k].translation() - truth.translation()).norm());
-      worst_dr = std::max(worst_dr, (res.dead_reckoning[k].translation() - truth.translation()).norm());
+      worst_dr =
+          std::max(worst_dr, (res.dead_reckoning[k].translation() - truth.translation()).norm());
     }
     EXPECT_GT(worst_dr, 0.5) << seed;
     EXPECT_LT(worst, 0.15) << seed;

@@ -132,6 +132,14 @@ double SeeThroughShare(const OccupancyGrid& grid, const PointCloud& cloud, const
   return cloud.size() ? static_cast<double>(through) / cloud.size() : 0.0;
 }
 
+// The element at rank floor(q * size) of a non-empty window of values.
+double Quantile(const std::deque<double>& values, double q) {
+  std::vector<double> v(values.begin(), values.end());
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
 // BuildPoseGraph's state as it walks the log, one method per stage:
 // tracking each scan, keyframes, loop closures, optimisation.
 class GraphBuilder {
@@ -268,12 +276,8 @@ class GraphBuilder {
   bool SeesThrough(const PointCloud& cloud, const SE2& pose) {
     constexpr double kAbove = 0.15;
     const double share = SeeThroughShare(LocalFreeSpace(), cloud, pose);
-    double typical = 0.05;
-    if (recent_see_through_.size() >= 10) {
-      std::vector<double> v(recent_see_through_.begin(), recent_see_through_.end());
-      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      typical = v[v.size() / 2];
-    }
+    const double typical =
+        recent_see_through_.size() >= 10 ? Quantile(recent_see_through_, 0.5) : 0.05;
     if (share >= typical + kAbove) return true;
     recent_see_through_.push_back(share);
     if (recent_see_through_.size() > 50) recent_see_through_.pop_front();
@@ -296,10 +300,7 @@ class GraphBuilder {
   }
   // The median inlier fraction of the last good matches (0 before ten).
   double RecentInliers() const {
-    if (recent_inliers_.size() < 10) return 0;
-    std::vector<double> v(recent_inliers_.begin(), recent_inliers_.end());
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return v[v.size() / 2];
+    return recent_inliers_.size() < 10 ? 0 : Quantile(recent_inliers_, 0.5);
   }
 
   // The tracking window: the options', widened (up to 3 times) when the
@@ -308,10 +309,7 @@ class GraphBuilder {
   // that is poor throughout does.
   static double Window(const std::deque<double>& recent, double base) {
     if (recent.size() < 20) return base;
-    std::vector<double> v(recent.begin(), recent.end());
-    const size_t k = v.size() * 9 / 10;
-    std::nth_element(v.begin(), v.begin() + k, v.end());
-    return std::clamp(2.5 * v[k], base, 3 * base);
+    return std::clamp(2.5 * Quantile(recent, 0.9), base, 3 * base);
   }
 
   // The match within the tracking window when it is good and not at the

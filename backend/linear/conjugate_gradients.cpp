@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "cairn/linear/block_ordering.h"
 #include "cairn/linear/cholmod_common.h"
 
 namespace cairn {
@@ -108,28 +109,23 @@ std::vector<int> HeaviestFirst(const Couplings& c) {
 
 // Nonzeros of the Cholesky factor of the block graph with the pairs marked
 // `in` (CHOLMOD's AMD analysis, blocks counted as one entry each).
-double BlockFactorNonZeros(int nb, const Couplings& c, const std::vector<bool>& in,
+double BlockFactorNonZeros(const Blocks& blocks, const Couplings& c, const std::vector<bool>& in,
                            CholmodCommon& cholmod) {
+  const int nb = blocks.count();
   std::vector<std::vector<int>> above(nb);
-  size_t entries = nb;
   for (size_t p = 0; p < c.pairs.size(); ++p)
-    if (in[p]) {
-      above[c.pairs[p].second].push_back(c.pairs[p].first);
-      ++entries;
-    }
-  cholmod_sparse* graph =
-      cholmod_allocate_sparse(nb, nb, entries, 1, 1, 1, CHOLMOD_PATTERN, cholmod.get());
-  if (!graph) return std::numeric_limits<double>::infinity();
-  int* gp = static_cast<int*>(graph->p);
-  int* gi = static_cast<int*>(graph->i);
-  gp[0] = 0;
+    if (in[p]) above[c.pairs[p].second].push_back(c.pairs[p].first);
+  BlockPattern pattern;
+  pattern.first = blocks.first;
+  pattern.bp.push_back(0);
   for (int b = 0; b < nb; ++b) {
     std::sort(above[b].begin(), above[b].end());
-    int k = gp[b];
-    for (int r : above[b]) gi[k++] = r;
-    gi[k++] = b;
-    gp[b + 1] = k;
+    pattern.bi.insert(pattern.bi.end(), above[b].begin(), above[b].end());
+    pattern.bi.push_back(b);
+    pattern.bp.push_back(static_cast<int>(pattern.bi.size()));
   }
+  cholmod_sparse* graph = BlockGraph(pattern, cholmod.get());
+  if (!graph) return std::numeric_limits<double>::infinity();
   cholmod_factor* f = cholmod_analyze(graph, cholmod.get());
   const double lnz = f ? cholmod->lnz : std::numeric_limits<double>::infinity();
   if (f) cholmod_free_factor(&f, cholmod.get());
@@ -141,8 +137,8 @@ double BlockFactorNonZeros(int nb, const Couplings& c, const std::vector<bool>& 
 // factor within `budget`: the longest such prefix of `order`, by bisection
 // (AMD's fill is not quite monotone in the prefix; close enough for a
 // budget). Returns how many were added.
-size_t AddWithinBudget(int nb, const Couplings& c, const std::vector<int>& order, double budget,
-                       std::vector<bool>* in) {
+size_t AddWithinBudget(const Blocks& blocks, const Couplings& c, const std::vector<int>& order,
+                       double budget, std::vector<bool>* in) {
   std::vector<int> others;
   for (int p : order)
     if (!(*in)[p]) others.push_back(p);
@@ -153,10 +149,10 @@ size_t AddWithinBudget(int nb, const Couplings& c, const std::vector<int>& order
     return trial;
   };
   size_t lo = 0, hi = others.size();
-  if (BlockFactorNonZeros(nb, c, with(hi), cholmod) > budget) {
+  if (BlockFactorNonZeros(blocks, c, with(hi), cholmod) > budget) {
     while (hi - lo > 1) {
       const size_t mid = lo + (hi - lo) / 2;
-      (BlockFactorNonZeros(nb, c, with(mid), cholmod) <= budget ? lo : hi) = mid;
+      (BlockFactorNonZeros(blocks, c, with(mid), cholmod) <= budget ? lo : hi) = mid;
     }
     hi = lo;
   }
@@ -265,7 +261,7 @@ void ConjugateGradients::ChooseSubgraph() {
   extra_pairs_ = 0;
   if (options_.preconditioner == Preconditioner::kSubgraph)
     extra_pairs_ = AddWithinBudget(
-        nb, c, order, options_.subgraph_fill * static_cast<double>(nb + c.pairs.size()), &in);
+        blocks_, c, order, options_.subgraph_fill * static_cast<double>(nb + c.pairs.size()), &in);
   std::vector<int> col_ptr{0}, rows;
   subgraph_source_.clear();
   for (int j = 0; j < n_; ++j) {

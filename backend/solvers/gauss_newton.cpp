@@ -1404,8 +1404,7 @@ SolveResult GaussNewtonProblem::Solve(const GaussNewtonOptions& options) {
   s.linear_solver = w.linear_solver;
   result.linear_solver = ToString(w.linear_solver);
   if ((w.linear_solver == CholeskyKind::kSupernodalOrSimplicial ||
-       w.linear_solver == CholeskyKind::kTwoHalves ||
-       w.linear_solver == CholeskyKind::kConjugateGradients) && w.cholesky)
+       w.linear_solver == CholeskyKind::kTwoHalves) && w.cholesky)
     result.linear_solver += ": " + w.cholesky->Method();
 
   result.setup_time_s = Seconds(t0);

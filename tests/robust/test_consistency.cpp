@@ -348,13 +348,6 @@ TEST(Gnc, NoRejectedLoopClosureFitsTheFinalSolution) {
   EXPECT_EQ(fitting, 0u);
 }
 
-// Information looser than the noise (0.3 times its inverse covariance), and
-// one loop closure in ten with 3 times more noise on top: the good ones'
-// statistics have a heavier tail than chi2's, as intel's and manhattan's
-// do. The variance factor then tightens the re-admission bound into that
-// tail; good loop closures must still come back (with the factor's bound
-// alone, 2 good ones stayed out per seed, 0.01-0.014 m off), the wrong
-// groups stay out.
 // Every wrong loop closure rejected, no good one, and the clean solution.
 void ExpectExactVerdicts(const OutlierRejectionResult& r, const std::set<VertexPair>& wrong,
                          double rms, uint64_t seed) {
@@ -365,6 +358,13 @@ void ExpectExactVerdicts(const OutlierRejectionResult& r, const std::set<VertexP
   EXPECT_LT(rms, 1e-3) << "seed " << seed;
 }
 
+// Information looser than the noise (0.3 times its inverse covariance), and
+// one loop closure in ten with 3 times more noise on top: the good ones'
+// statistics have a heavier tail than chi2's, as intel's and manhattan's
+// do. The variance factor then tightens the re-admission bound into that
+// tail; good loop closures must still come back (with the factor's bound
+// alone, 2 good ones stayed out per seed, 0.01-0.014 m off), the wrong
+// groups stay out.
 TEST(Gnc, HeavyTailedGoodLoopClosuresComeBack) {
   CAIRN_LONG_NUMERICAL_TEST();
   for (uint64_t seed : {31, 32, 33}) {

@@ -161,8 +161,8 @@ void Gnc(RejectionState& s, const std::vector<bool>& in, double mu, const char* 
   const double c2 = s.gnc_c2;
   std::vector<double>& w = s.w;
   const std::vector<double>& r2 = s.r2;
-  const double everywhere = std::numeric_limits<double>::infinity();
-  if (ConvexMu(s, in, everywhere) == kBinaryMu) {
+  const double convex = ConvexMu(s, in, std::numeric_limits<double>::infinity());
+  if (convex == kBinaryMu) {
     // Every residual within the threshold: the estimate is already a
     // minimum of the truncated cost, and every weight is 1 at any mu.
     for (size_t i = 0; i < s.closures.size(); ++i)
@@ -170,12 +170,12 @@ void Gnc(RejectionState& s, const std::vector<bool>& in, double mu, const char* 
     if (options.verbose) std::fprintf(stderr, "gnc (%s): every loop closure fits\n", stage);
     return;
   }
+  if (mu <= 0) mu = convex;
   size_t count = 0;
   for (bool x : in) count += x;
   std::vector<double> solved_w;
   for (int round = 0; round < options.max_rounds; ++round) {
-    if (mu <= 0 || fit_mu)
-      mu = std::max(mu, ConvexMu(s, in, mu > 0 ? (mu + 1) / mu * c2 : everywhere));
+    if (fit_mu) mu = std::max(mu, ConvexMu(s, in, (mu + 1) / mu * c2));
     const double lo = mu / (mu + 1) * c2, hi = (mu + 1) / mu * c2;
     double undecided = 0;
     size_t active = 0;

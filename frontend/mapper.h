@@ -97,6 +97,9 @@ struct KeyFrame {
 
 struct MapperStats {
   size_t loop_candidates = 0, loop_accepted = 0, optimizations = 0, tracking_failures = 0;
+  // Verified by the scans' fit, refused as the scan contradicted the free
+  // space seen at that place.
+  size_t loop_contradicted = 0;
   // Poor matches searched again wide, and those the wide search recovered.
   size_t wide_searches = 0, recoveries = 0;
   // Poses the searches offered that the odometry's prediction refuted:

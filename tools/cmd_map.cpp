@@ -247,7 +247,8 @@ int RunMap(int argc, char** argv) {
   const auto& st = res.stats;
   std::cerr << log.scans.size() << " scans, " << res.keyframes.size() << " keyframes, "
             << res.graph.CountEdges(EdgeKind::kOdometry) << " odometry edges, " << st.loop_accepted
-            << " loop closures accepted of " << st.loop_candidates << " candidates, "
+            << " loop closures accepted of " << st.loop_candidates << " candidates ("
+            << st.loop_contradicted << " refused by the free space they saw), "
             << st.optimizations << " optimisations (" << a.solver << "), " << st.wide_searches
             << " poor matches searched wide of which " << st.recoveries << " recovered and "
             << st.vetoed << " were refuted by the odometry, " << st.tracking_failures

@@ -140,6 +140,19 @@ double Quantile(const std::deque<double>& values, double q) {
   return v[k];
 }
 
+// The last 50 values of a figure the tracking or the loop search keeps
+// (one per match), and their median once there are ten.
+struct RecentWindow {
+  std::deque<double> values;
+  void Add(double v) {
+    values.push_back(v);
+    if (values.size() > 50) values.pop_front();
+  }
+  double Median(double before_ten) const {
+    return values.size() >= 10 ? Quantile(values, 0.5) : before_ten;
+  }
+};
+
 // BuildPoseGraph's state as it walks the log, one method per stage:
 // tracking each scan, keyframes, loop closures, optimisation.
 class GraphBuilder {
@@ -250,12 +263,10 @@ class GraphBuilder {
         odo_num_ += inc.x() * prev.Between(current_).x();
         odo_den_ += inc.x() * inc.x();
       }
-      recent_inliers_.push_back(match->inlier_fraction);
-      if (recent_inliers_.size() > 50) recent_inliers_.pop_front();
+      recent_inliers_.Add(match->inlier_fraction);
       const SE2 off = predicted.Between(match->pose);
-      recent_turn_.push_back(std::abs(off.theta()));
-      recent_shift_.push_back(off.translation().norm());
-      if (recent_turn_.size() > 50) recent_turn_.pop_front(), recent_shift_.pop_front();
+      recent_turn_.Add(std::abs(off.theta()));
+      recent_shift_.Add(off.translation().norm());
       lost_ = false;
     } else {
       current_ = predicted;
@@ -276,11 +287,8 @@ class GraphBuilder {
   bool SeesThrough(const PointCloud& cloud, const SE2& pose) {
     constexpr double kAbove = 0.15;
     const double share = SeeThroughShare(LocalFreeSpace(), cloud, pose);
-    const double typical =
-        recent_see_through_.size() >= 10 ? Quantile(recent_see_through_, 0.5) : 0.05;
-    if (share >= typical + kAbove) return true;
-    recent_see_through_.push_back(share);
-    if (recent_see_through_.size() > 50) recent_see_through_.pop_front();
+    if (share >= recent_see_through_.Median(0.05) + kAbove) return true;
+    recent_see_through_.Add(share);
     return false;
   }
 
@@ -300,16 +308,16 @@ class GraphBuilder {
   }
   // The median inlier fraction of the last good matches (0 before ten).
   double RecentInliers() const {
-    return recent_inliers_.size() < 10 ? 0 : Quantile(recent_inliers_, 0.5);
+    return recent_inliers_.Median(0.0);
   }
 
   // The tracking window: the options', widened (up to 3 times) when the
   // odometry's recent errors say that a tenth of its steps lie beyond 40%
   // of it. A single glitch does not move the 90th percentile; odometry
   // that is poor throughout does.
-  static double Window(const std::deque<double>& recent, double base) {
-    if (recent.size() < 20) return base;
-    return std::clamp(2.5 * Quantile(recent, 0.9), base, 3 * base);
+  static double Window(const RecentWindow& recent, double base) {
+    if (recent.values.size() < 20) return base;
+    return std::clamp(2.5 * Quantile(recent.values, 0.9), base, 3 * base);
   }
 
   // The match within the tracking window when it is good and not at the
@@ -804,18 +812,11 @@ class GraphBuilder {
       contradicted = std::max(contradicted, ContradictedShare(seen, cloud, at));
       through = std::max(through, SeeThroughShare(seen, cloud, at));
     }
-    const bool enough = recent_loop_contradicted_.size() >= 10;
-    const double typical_contradicted = enough ? Quantile(recent_loop_contradicted_, 0.5) : 0.05;
-    const double typical_through = enough ? Quantile(recent_loop_through_, 0.5) : 0.05;
-    if (contradicted >= typical_contradicted + kContradictedAbove ||
-        through >= typical_through + kSeeThroughAbove)
+    if (contradicted >= recent_loop_contradicted_.Median(0.05) + kContradictedAbove ||
+        through >= recent_loop_through_.Median(0.05) + kSeeThroughAbove)
       return true;
-    recent_loop_contradicted_.push_back(contradicted);
-    recent_loop_through_.push_back(through);
-    if (recent_loop_contradicted_.size() > 50) {
-      recent_loop_contradicted_.pop_front();
-      recent_loop_through_.pop_front();
-    }
+    recent_loop_contradicted_.Add(contradicted);
+    recent_loop_through_.Add(through);
     return false;
   }
 
@@ -900,11 +901,11 @@ class GraphBuilder {
   const CarmenLog& log_;
   const MapperOptions& o_;
   std::ostream* progress_;
-  std::deque<double> recent_see_through_;  // SeesThrough's recent shares
+  RecentWindow recent_see_through_;  // SeesThrough's recent shares
   // ContradictsItsPlace's shares of the loop closures accepted lately.
-  std::deque<double> recent_loop_contradicted_, recent_loop_through_;
-  std::deque<double> recent_inliers_;  // of the last good matches
-  std::deque<double> recent_turn_, recent_shift_;  // their distances from the prediction
+  RecentWindow recent_loop_contradicted_, recent_loop_through_;
+  RecentWindow recent_inliers_;  // of the last good matches
+  RecentWindow recent_turn_, recent_shift_;  // their distances from the prediction
   bool lost_since_keyframe_ = false;
   bool lost_ = false;  // tracking on odometry alone since a scan disputed it
   // The last scan's wide pose, refused as ambiguous, for the next to second.

@@ -1,5 +1,5 @@
-// Shared helpers for the gtest suites: where the real datasets are, and how
-// to skip a test cleanly when they are not there.
+// Shared helpers for the gtest suites: where the real datasets are, how
+// to skip a test cleanly when they are not there, and small edits of graphs.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -15,6 +15,8 @@
 #include <filesystem>
 #include <regex>
 #include <string>
+
+#include "cairn/graph/pose_graph.h"
 
 namespace cairn::testing {
 
@@ -64,6 +66,15 @@ inline double JsonNumber(const std::string& json, const std::string& key) {
   if (!std::regex_search(json, m, std::regex("\"" + key + "\": *([-0-9.eE+]+)")))
     return std::nan("");
   return std::stod(m[1]);
+}
+
+// Every edge's information times s (a graph looser or tighter than its noise).
+inline void ScaleInformation(PoseGraph& graph, double s) {
+  for (size_t k = 0; k < graph.edges().size(); ++k) {
+    Edge e = graph.edges()[k];
+    e.information *= s;
+    graph.SetEdge(k, e);
+  }
 }
 
 }  // namespace cairn::testing

@@ -391,15 +391,6 @@ TEST(Gnc, HeavyTailedGoodLoopClosuresComeBack) {
   }
 }
 
-PoseGraph WithInformationScaled(PoseGraph g, double factor) {
-  for (size_t j = 0; j < g.edges().size(); ++j) {
-    Edge e = g.edges()[j];
-    e.information = factor * Matrix6d(e.information);
-    g.SetEdge(j, e);
-  }
-  return g;
-}
-
 // Information far looser than the noise (sphere2500's variance factor is
 // 0.03) puts the wide reach's mu on the trusted loop closures at a few
 // thousandths. Where no wrong one is among them, their least squares
@@ -409,7 +400,8 @@ PoseGraph WithInformationScaled(PoseGraph g, double factor) {
 TEST(Gnc, ACleanTrustedSetSkipsTheWideReachsRounds) {
   CAIRN_LONG_NUMERICAL_TEST();
   for (uint64_t seed : {41, 42}) {
-    const PoseGraph loose = WithInformationScaled(Simulated(2, 1000, seed).noisy, 0.03);
+    PoseGraph loose = Simulated(2, 1000, seed).noisy;
+    testing::ScaleInformation(loose, 0.03);
     PoseGraph reference = loose;
     SolveGaussNewton(reference, GaussNewtonOptions());
     PoseGraph g = loose;

@@ -12,6 +12,7 @@
 #include "cairn/graph/simulate.h"
 #include "cairn/solvers/ceres_solver.h"
 #include "cairn/solvers/graph_gauss_newton.h"
+#include "test_util.h"
 
 namespace cairn {
 namespace {
@@ -24,13 +25,7 @@ PoseGraph Simulated(int dimension, int poses, uint64_t seed) {
   return Simulate(o).noisy;
 }
 
-void ScaleInformation(PoseGraph& graph, double s) {
-  for (size_t k = 0; k < graph.edges().size(); ++k) {
-    Edge e = graph.edges()[k];
-    e.information *= s;
-    graph.SetEdge(k, e);
-  }
-}
+using testing::ScaleInformation;
 
 SolveResult Solve(PoseGraph& graph, bool gn, const SolverOptions& common) {
   if (gn) {

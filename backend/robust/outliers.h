@@ -32,8 +32,10 @@ struct OutlierRejectionOptions {
   // cost; 0 takes LoopClosureThreshold(confidence, 3 or 6, loop closures).
   double threshold_chi2 = 0;
   double confidence = 0.999;
-  // GNC's schedule: mu grows by this factor between weighted solves.
-  double mu_factor = 2;
+  // GNC's schedule: mu grows by this factor between weighted solves (4
+  // since the screened start of the trusted set's least squares; 2 before,
+  // when a coarser schedule lost small files' hardest cells).
+  double mu_factor = 4;
   int max_rounds = 1000;
   // Iterations of each weighted solve inside GNC (0: the solver's own
   // limit), and the relative decrease of chi2 (and of the gradient) below

@@ -309,12 +309,12 @@ double TrustedRestartMu(const RejectionState& s) {
 // from there spends tens of iterations bending the graph further to it,
 // and GNC as many unbending it (sphere2500, 20% aliased in groups of 10:
 // 208 iterations, 13.8 s, in the least squares and GNC's first three
-// rounds). Each start
-// without the worst of them moves away from the rest: on city10000's 20%
-// in groups of 10, the 66 wrong ones' least chi2 goes 3.8 -> 12,000 in
-// nine starts, while the good ones' 99th percentile falls 151 -> 0.13. A
-// good loop closure screened out is weighed by GNC all the same. Only
-// starts that the loop closures shape are screened (chordal, auto).
+// rounds). Each start without the worst of them moves away from the rest:
+// on city10000's 20% in groups of 10, the 66 wrong ones' least chi2 goes
+// 3.8 -> 12,000 in nine starts, while the good ones' 99th percentile falls
+// 151 -> 0.13. A good loop closure screened out is weighed by GNC all the
+// same. Only starts that the loop closures shape are screened (chordal,
+// auto).
 std::vector<bool> ScreenedStart(RejectionState& s, const std::vector<bool>& confirmed) {
   constexpr int kScreenRounds = 12;
   constexpr double kScreenFloor = 4;

@@ -448,8 +448,9 @@ TEST(Gnc, TrustedLoopClosuresFarFromAnUnfinishedSolveStayIn) {
 // repeats: the wrong ones move away from it, and each solve after takes a
 // few iterations. Simulated 3D graphs of 2,500 poses with 20% wrong loop
 // closures in aliased groups of 10: 78-93 iterations in the whole run
-// without the screen (information as simulated or 0.03 times it, seeds 1
-// and 2), 27-28 with it; 2D graphs and 1,000 poses take 20-27 either way.
+// without the screen (GNC's mu x2 a round; information as simulated or
+// 0.03 times it, seeds 1 and 2), 27-28 with it, 21-24 with mu x4 as well;
+// 2D graphs and 1,000 poses took 20-27 with and without the screen.
 TEST(Gnc, TheFreshStartLeavesOutTheAliasedGroupsItCannotHold) {
   CAIRN_LONG_NUMERICAL_TEST();
   for (uint64_t seed : {1, 2}) {

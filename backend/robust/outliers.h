@@ -56,7 +56,8 @@ struct OutlierRejectionOptions {
   // for information far looser than the noise.
   bool scale_by_variance = true;
   // Iterations of the first least squares on those trusted loop closures
-  // (from fresh_init), before GNC on them.
+  // (from fresh_init, on those of them that start can hold when it is
+  // chordal or auto), before GNC on all of them.
   int trusted_iterations = 20;
   // After that stage, GNC over all loop closures starts where a residual
   // beyond this many times the threshold weighs 0 (mu = 1 / (factor - 1)).
